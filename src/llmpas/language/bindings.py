@@ -1,0 +1,193 @@
+"""Python implementations of streams, bound by name, normalised to one shape.
+
+Users bind a stream name to one of
+
+- a conditional sampler: a generator (or any callable returning an iterable) of output tuples;
+- a function returning one output tuple, or ``None`` when there is none;
+- a test returning a bool (streams with no ``:outputs``);
+- a cost function returning a number (``:function`` declarations).
+
+``sampler``/``function``/``test``/``cost`` wrap a callable with its :class:`StreamInfo`; a bare
+callable is wrapped by what its declaration says and what it returns.
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Any
+
+from llmpas.language.errors import BindingError
+from llmpas.language.streams import FunctionSchema, StreamSchema, StreamSpec
+
+
+class Kind(Enum):
+    AUTO = "auto"
+    SAMPLER = "sampler"
+    FUNCTION = "function"
+    TEST = "test"
+    COST = "cost"
+
+
+@dataclass(frozen=True)
+class StreamInfo:
+    """Per-stream planning information.
+
+    ``deferred``: assumed satisfiable while planning; evaluated by the executor right before the
+    action that needs it. ``overhead`` is the expected cost of one call (it orders optimistic plans:
+    plans with fewer and cheaper unevaluated streams are preferred). ``max_outputs`` bounds how many
+    outputs one stream instance may produce during planning.
+    """
+
+    deferred: bool = False
+    overhead: float = 1.0
+    p_success: float = 1.0
+    max_outputs: int = 10
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.p_success <= 1.0:
+            raise ValueError(f"p_success must be in (0, 1], got {self.p_success}")
+        if self.overhead < 0:
+            raise ValueError(f"overhead must be >= 0, got {self.overhead}")
+        if self.max_outputs < 1:
+            raise ValueError(f"max_outputs must be >= 1, got {self.max_outputs}")
+
+
+@dataclass(frozen=True)
+class Implementation:
+    fn: Callable[..., Any]
+    kind: Kind = Kind.AUTO
+    info: StreamInfo = field(default_factory=StreamInfo)
+
+
+def sampler(fn: Callable[..., Iterable[Any]], **info: Any) -> Implementation:
+    return Implementation(fn, Kind.SAMPLER, StreamInfo(**info))
+
+
+def function(fn: Callable[..., Any], **info: Any) -> Implementation:
+    return Implementation(fn, Kind.FUNCTION, StreamInfo(**info))
+
+
+def test(fn: Callable[..., bool], **info: Any) -> Implementation:
+    return Implementation(fn, Kind.TEST, StreamInfo(**info))
+
+
+test.__test__ = False  # type: ignore[attr-defined]  # not a pytest test
+
+
+def cost(fn: Callable[..., float]) -> Implementation:
+    return Implementation(fn, Kind.COST)
+
+
+@dataclass(frozen=True)
+class BoundStream:
+    """A stream schema with its normalised implementation: ``outputs(values)`` yields tuples."""
+
+    schema: StreamSchema
+    impl: Implementation
+
+    @property
+    def info(self) -> StreamInfo:
+        return self.impl.info
+
+    def outputs(
+        self, inputs: tuple[Any, ...], fluents: Iterable[Any] = ()
+    ) -> Iterator[tuple[Any, ...]]:
+        kwargs = {"fluents": list(fluents)} if self.schema.fluents else {}
+        result = self.impl.fn(*inputs, **kwargs)
+        if self.schema.is_test:
+            if not isinstance(result, bool | int) and result is not None:
+                raise BindingError(
+                    f"test stream {self.schema.name!r} returned {type(result).__name__}, not bool"
+                )
+            if result:
+                yield ()
+            return
+        yield from self._normalise(result)
+
+    def _normalise(self, result: Any) -> Iterator[tuple[Any, ...]]:
+        kind = self.impl.kind
+        if result is None:
+            return
+        if kind is Kind.FUNCTION or (kind is Kind.AUTO and isinstance(result, tuple)):
+            yield self._check(result)
+            return
+        if isinstance(result, str | bytes) or not isinstance(result, Iterable):
+            raise BindingError(
+                f"stream {self.schema.name!r} returned {type(result).__name__}; expected a tuple "
+                "of outputs, None, or an iterable of tuples"
+            )
+        for item in result:
+            if item is None:  # a sampler may yield None for "no output this time"
+                continue
+            yield self._check(item)
+
+    def _check(self, item: Any) -> tuple[Any, ...]:
+        n = len(self.schema.outputs)
+        if not isinstance(item, tuple | list) or len(item) != n:
+            raise BindingError(
+                f"stream {self.schema.name!r} produced {item!r}; expected a tuple of {n} "
+                f"output(s) {self.schema.outputs}"
+            )
+        return tuple(item)
+
+
+@dataclass(frozen=True)
+class BoundFunction:
+    schema: FunctionSchema
+    impl: Implementation
+
+    def value(self, inputs: tuple[Any, ...]) -> float:
+        v = self.impl.fn(*inputs)
+        if isinstance(v, bool) or not isinstance(v, int | float):
+            raise BindingError(f"function {self.schema.name!r} returned {v!r}, not a number")
+        if v < 0:
+            raise BindingError(f"function {self.schema.name!r} returned {v}, costs must be >= 0")
+        return float(v)
+
+
+def _as_impl(obj: Any, name: str) -> Implementation:
+    if isinstance(obj, Implementation):
+        return obj
+    if callable(obj):
+        kind = Kind.SAMPLER if inspect.isgeneratorfunction(obj) else Kind.AUTO
+        return Implementation(obj, kind)
+    raise BindingError(f"implementation of {name!r} is {type(obj).__name__}, not callable")
+
+
+def bind(
+    spec: StreamSpec,
+    implementations: Mapping[str, Any],
+    info: Mapping[str, StreamInfo] | None = None,
+) -> tuple[dict[str, BoundStream], dict[str, BoundFunction]]:
+    """Match declarations to implementations by name; every one must have its partner."""
+    impls = {k.lower(): v for k, v in implementations.items()}
+    declared = {s.name for s in spec.streams} | {f.name for f in spec.functions}
+    missing = sorted(declared - impls.keys())
+    if missing:
+        raise BindingError(
+            f"{spec.filename}: stream {missing[0]!r} is declared but has no Python implementation"
+        )
+    extra = sorted(impls.keys() - declared)
+    if extra:
+        raise BindingError(
+            f"implementation {extra[0]!r} is given but {spec.filename} declares no such stream"
+        )
+    overrides = {k.lower(): v for k, v in (info or {}).items()}
+    unknown = sorted(overrides.keys() - declared)
+    if unknown:
+        raise BindingError(
+            f"stream info for {unknown[0]!r}: {spec.filename} declares no such stream"
+        )
+    streams: dict[str, BoundStream] = {}
+    for s in spec.streams:
+        impl = _as_impl(impls[s.name], s.name)
+        if impl.kind is Kind.COST:
+            raise BindingError(f"stream {s.name!r} is bound to a cost function")
+        if s.name in overrides:
+            impl = Implementation(impl.fn, impl.kind, overrides[s.name])
+        streams[s.name] = BoundStream(s, impl)
+    functions = {f.name: BoundFunction(f, _as_impl(impls[f.name], f.name)) for f in spec.functions}
+    return streams, functions

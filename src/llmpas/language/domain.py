@@ -1,0 +1,493 @@
+"""PDDL domains: an immutable model, a lax reader and a writer.
+
+Domain files written for stream-based planners are lax (see ``shared/notes/stream-files.md``):
+requirements are incomplete, types are usually absent, derived predicates and stream-certified
+predicates may be undeclared. The reader accepts what the body uses; the writer declares every
+requirement and predicate, so Fast Downward and the ``pddl`` package both read its output.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+from llmpas.language.errors import ModelError
+from llmpas.language.logic import (
+    TRUE,
+    And,
+    Atom,
+    EffectItem,
+    Exists,
+    Forall,
+    ForallEffect,
+    Formula,
+    FuncTerm,
+    Imply,
+    Increase,
+    Not,
+    NumExpr,
+    Or,
+    Param,
+    When,
+    params_text,
+    render_effects,
+)
+from llmpas.language.sexpr import (
+    Pos,
+    SExpr,
+    SList,
+    Sym,
+    expect_list,
+    expect_sym,
+    keyword_sections,
+    parse_one,
+)
+
+FULL_REQUIREMENTS = (
+    ":strips",
+    ":typing",
+    ":negative-preconditions",
+    ":disjunctive-preconditions",
+    ":equality",
+    ":existential-preconditions",
+    ":universal-preconditions",
+    ":conditional-effects",
+    ":derived-predicates",
+    ":action-costs",
+)
+
+
+@dataclass(frozen=True)
+class Signature:
+    """A predicate or function declaration: name and typed parameters."""
+
+    name: str
+    params: tuple[Param, ...] = ()
+
+    @property
+    def arity(self) -> int:
+        return len(self.params)
+
+    def __str__(self) -> str:
+        return "(" + " ".join((self.name, *map(str, self.params))) + ")"
+
+
+@dataclass(frozen=True)
+class Derived:
+    head: Signature
+    body: Formula
+
+    def __str__(self) -> str:
+        return f"(:derived {self.head} {self.body})"
+
+
+@dataclass(frozen=True)
+class Action:
+    name: str
+    params: tuple[Param, ...]
+    precondition: Formula
+    effects: tuple[EffectItem, ...]
+
+    def __str__(self) -> str:
+        return (
+            f"(:action {self.name}\n  :parameters {params_text(self.params)}\n"
+            f"  :precondition {self.precondition}\n  :effect {render_effects(self.effects)})"
+        )
+
+
+def _frozen_map() -> Mapping[str, Any]:
+    return MappingProxyType({})
+
+
+@dataclass(frozen=True, eq=False)
+class Domain:
+    name: str
+    requirements: tuple[str, ...] = ()
+    types: Mapping[str, str] = field(default_factory=_frozen_map)  # type -> parent type
+    constants: tuple[Param, ...] = ()
+    predicates: Mapping[str, Signature] = field(default_factory=_frozen_map)
+    functions: Mapping[str, Signature] = field(default_factory=_frozen_map)
+    derived: tuple[Derived, ...] = ()
+    actions: tuple[Action, ...] = ()
+    # predicates used in the body but declared nowhere, with where they first appear;
+    # they are legal only if a stream certifies them (checked when a Problem is built)
+    undeclared: Mapping[str, tuple[int, Pos]] = field(default_factory=_frozen_map)
+    filename: str = "<domain>"
+
+    def __post_init__(self) -> None:
+        for attr in ("types", "predicates", "functions", "undeclared"):
+            object.__setattr__(self, attr, MappingProxyType(dict(getattr(self, attr))))
+        names = [a.name for a in self.actions]
+        dup = {n for n in names if names.count(n) > 1}
+        if dup:
+            raise ModelError(f"{self.filename}: action {sorted(dup)[0]!r} is defined twice")
+
+    @property
+    def derived_names(self) -> frozenset[str]:
+        return frozenset(d.head.name for d in self.derived)
+
+    def action(self, name: str) -> Action:
+        for a in self.actions:
+            if a.name == name.lower():
+                return a
+        raise ModelError(f"{self.filename}: unknown action {name!r}")
+
+    def arity(self, predicate: str) -> int | None:
+        if predicate == "=":
+            return 2
+        sig = self.predicates.get(predicate)
+        if sig is not None:
+            return sig.arity
+        und = self.undeclared.get(predicate)
+        return und[0] if und else None
+
+    def supertypes(self, t: str) -> tuple[str, ...]:
+        """``t`` and its ancestors up to ``object``."""
+        chain = [t]
+        while chain[-1] in self.types and self.types[chain[-1]] not in chain:
+            chain.append(self.types[chain[-1]])
+        if "object" not in chain:
+            chain.append("object")
+        return tuple(chain)
+
+    def with_additions(
+        self,
+        predicates: Iterable[Signature] = (),
+        actions: Iterable[Action] = (),
+        derived: Iterable[Derived] = (),
+    ) -> Domain:
+        preds = dict(self.predicates)
+        for p in predicates:
+            preds.setdefault(p.name, p)
+        return replace(
+            self,
+            predicates=preds,
+            actions=self.actions + tuple(actions),
+            derived=self.derived + tuple(derived),
+        )
+
+    def to_pddl(self) -> str:
+        """Standard PDDL that declares every requirement and predicate the body uses."""
+        preds = dict(self.predicates)
+        for name, (arity, _) in self.undeclared.items():
+            preds.setdefault(name, Signature(name, tuple(Param(f"?x{i}") for i in range(arity))))
+        for d in self.derived:
+            preds.setdefault(d.head.name, d.head)
+        lines = [
+            f"(define (domain {self.name})",
+            f"  (:requirements {' '.join(FULL_REQUIREMENTS)})",
+        ]
+        if self.types:
+            lines.append("  (:types " + " ".join(f"{t} - {p}" for t, p in self.types.items()) + ")")
+        if self.constants:
+            lines.append("  (:constants " + " ".join(map(str, self.constants)) + ")")
+        lines.append("  (:predicates " + " ".join(str(p) for p in preds.values()) + ")")
+        funcs = [str(f) for f in self.functions.values() if f.name != "total-cost"]
+        if self.uses_costs():
+            funcs.append("(total-cost)")
+        if funcs:
+            lines.append("  (:functions " + " ".join(f"{f} - number" for f in funcs) + ")")
+        lines += [f"  {d}" for d in self.derived]
+        lines += [f"  {a}" for a in self.actions]
+        lines.append(")")
+        return "\n".join(lines) + "\n"
+
+    def uses_costs(self) -> bool:
+        return any(_has_increase(a.effects) for a in self.actions)
+
+
+def _has_increase(effects: Iterable[EffectItem]) -> bool:
+    for e in effects:
+        if isinstance(e, Increase):
+            return True
+        if isinstance(e, When | ForallEffect) and _has_increase(e.effects):
+            return True
+    return False
+
+
+# ---------------------------------------------------------------------------------------- reading
+
+
+def read_domain(path: str | Path) -> Domain:
+    path = Path(path)
+    return parse_domain(path.read_text(encoding="utf-8"), str(path))
+
+
+def parse_domain(text: str, filename: str = "<domain>") -> Domain:
+    root = parse_one(text, filename)
+    if root.head() != "define" or len(root) < 2:
+        raise root.pos.error("expected '(define (domain NAME) ...)'")
+    header = expect_list(root[1], "'(domain NAME)'")
+    if header.head() != "domain" or len(header) != 2:
+        raise header.pos.error("expected '(domain NAME)'")
+    reader = _DomainReader(filename)
+    reader.name = expect_sym(header[1], "a domain name").text
+    for section in root.items[2:]:
+        reader.section(expect_list(section, "a domain section"))
+    return reader.build()
+
+
+def parse_typed_list(items: Iterable[SExpr], what: str) -> tuple[Param, ...]:
+    """``?a ?b - t ?c`` -> (Param(?a, t), Param(?b, t), Param(?c, object))."""
+    out: list[Param] = []
+    pending: list[Sym] = []
+    seq = list(items)
+    i = 0
+    while i < len(seq):
+        s = expect_sym(seq[i], f"a name in {what}")
+        if s.text == "-":
+            if i + 1 >= len(seq):
+                raise s.pos.error(f"'-' without a type in {what}")
+            t = seq[i + 1]
+            if isinstance(t, SList):
+                raise t.pos.error(f"'(either ...)' types are not supported in {what}")
+            out += [Param(p.text, t.text) for p in pending]
+            pending, i = [], i + 2
+            continue
+        pending.append(s)
+        i += 1
+    out += [Param(p.text) for p in pending]
+    return tuple(out)
+
+
+@dataclass
+class _DomainReader:
+    filename: str
+    name: str = ""
+    requirements: tuple[str, ...] = ()
+    types: dict[str, str] = field(default_factory=dict)
+    constants: tuple[Param, ...] = ()
+    predicates: dict[str, Signature] = field(default_factory=dict)
+    functions: dict[str, Signature] = field(default_factory=dict)
+    derived: list[tuple[Signature, SExpr, Pos]] = field(default_factory=list)
+    actions: list[tuple[SList, Pos]] = field(default_factory=list)
+    undeclared: dict[str, tuple[int, Pos]] = field(default_factory=dict)
+
+    def section(self, s: SList) -> None:
+        key = s.head()
+        body = s.items[1:]
+        if key == ":requirements":
+            self.requirements = tuple(expect_sym(x, "a requirement").text for x in body)
+        elif key == ":types":
+            for p in parse_typed_list(body, ":types"):
+                self.types[p.name] = p.type
+        elif key == ":constants":
+            self.constants += parse_typed_list(body, ":constants")
+        elif key == ":predicates":
+            for x in body:
+                sig = _signature(expect_list(x, "a predicate declaration"))
+                self.predicates[sig.name] = sig
+        elif key == ":functions":
+            self._functions(body)
+        elif key == ":derived":
+            if len(body) != 2:
+                raise s.pos.error("expected '(:derived (NAME ?x ...) FORMULA)'")
+            self.derived.append(
+                (_signature(expect_list(body[0], "a derived head")), body[1], s.pos)
+            )
+        elif key == ":action":
+            self.actions.append((s, s.pos))
+        elif key == ":constraints":
+            raise s.pos.error("':constraints' is not supported")
+        else:
+            raise s.pos.error(f"unknown domain section '{key}'")
+
+    def _functions(self, body: tuple[SExpr, ...]) -> None:
+        items = list(body)
+        i = 0
+        while i < len(items):
+            x = items[i]
+            if isinstance(x, Sym) and x.text == "-":
+                i += 2  # skip "- number"
+                continue
+            sig = _signature(expect_list(x, "a function declaration"))
+            self.functions[sig.name] = sig
+            i += 1
+
+    def build(self) -> Domain:
+        for sig, _, _ in self.derived:
+            self.predicates.setdefault(sig.name, sig)
+        fr = _FormulaReader(self)
+        derived = tuple(
+            Derived(sig, fr.formula(body, {p.name for p in sig.params}))
+            for sig, body, _ in self.derived
+        )
+        actions = tuple(self._action(s, fr) for s, _ in self.actions)
+        return Domain(
+            name=self.name,
+            requirements=self.requirements,
+            types=self.types,
+            constants=self.constants,
+            predicates=self.predicates,
+            functions=self.functions,
+            derived=derived,
+            actions=actions,
+            undeclared=self.undeclared,
+            filename=self.filename,
+        )
+
+    def _action(self, s: SList, fr: _FormulaReader) -> Action:
+        if len(s) < 2:
+            raise s.pos.error("expected '(:action NAME :parameters (...) ...)'")
+        name = expect_sym(s[1], "an action name").text
+        params: tuple[Param, ...] = ()
+        pre: Formula = TRUE
+        effects: tuple[EffectItem, ...] = ()
+        sections = list(keyword_sections(s.items[2:], f"action '{name}'"))
+        for key, vals in sections:
+            if key.text == ":parameters":
+                params = parse_typed_list(
+                    expect_list(_single(key, vals), "parameters"), "parameters"
+                )
+        scope = {p.name for p in params}
+        for key, vals in sections:
+            if key.text == ":precondition":
+                v = _single(key, vals)
+                pre = TRUE if isinstance(v, SList) and len(v) == 0 else fr.formula(v, scope)
+            elif key.text == ":effect":
+                effects = fr.effects(_single(key, vals), scope)
+            elif key.text != ":parameters":
+                raise key.pos.error(f"unknown action keyword '{key.text}' in action '{name}'")
+        return Action(name, params, pre, effects)
+
+
+def _single(key: Sym, vals: tuple[SExpr, ...]) -> SExpr:
+    if len(vals) != 1:
+        raise key.pos.error(f"'{key.text}' takes exactly one value")
+    return vals[0]
+
+
+def _signature(s: SList) -> Signature:
+    if not s.items:
+        raise s.pos.error("empty declaration '()'")
+    name = expect_sym(s[0], "a name").text
+    return Signature(name, parse_typed_list(s.items[1:], f"'{name}'"))
+
+
+class _FormulaReader:
+    """Turns s-expressions into formulas, checking predicate arity and variable scope."""
+
+    def __init__(self, reader: _DomainReader) -> None:
+        self.r = reader
+
+    def atom(self, s: SList, scope: set[str]) -> Atom:
+        pred = expect_sym(s[0], "a predicate name").text
+        args = tuple(expect_sym(a, f"an argument of '{pred}'") for a in s.items[1:])
+        for a in args:
+            if a.text.startswith("?") and a.text not in scope:
+                raise a.pos.error(f"variable '{a.text}' is not bound here")
+        self._check_arity(pred, len(args), s.pos)
+        return Atom(pred, tuple(a.text for a in args))
+
+    def _check_arity(self, pred: str, n: int, pos: Pos) -> None:
+        if pred == "=":
+            if n != 2:
+                raise pos.error("'=' takes two arguments")
+            return
+        sig = self.r.predicates.get(pred)
+        if sig is None:
+            known = self.r.undeclared.setdefault(pred, (n, pos))
+            if known[0] != n:
+                raise pos.error(f"'{pred}' used with {n} arguments here, {known[0]} elsewhere")
+        elif sig.arity != n:
+            raise pos.error(f"predicate '{pred}' takes {sig.arity} arguments, given {n}")
+
+    def formula(self, e: SExpr, scope: set[str]) -> Formula:
+        s = expect_list(e, "a formula")
+        head = s.head()
+        if head is None:
+            raise s.pos.error("expected a formula, found '()'" if not s.items else "bad formula")
+        args = s.items[1:]
+        if head == "and":
+            return And(tuple(self.formula(a, scope) for a in args))
+        if head == "or":
+            return Or(tuple(self.formula(a, scope) for a in args))
+        if head == "not":
+            if len(args) != 1:
+                raise s.pos.error("'not' takes one formula")
+            return Not(self.formula(args[0], scope))
+        if head == "imply":
+            if len(args) != 2:
+                raise s.pos.error("'imply' takes two formulas")
+            return Imply(self.formula(args[0], scope), self.formula(args[1], scope))
+        if head in ("exists", "forall"):
+            if len(args) != 2:
+                raise s.pos.error(f"'{head}' takes a variable list and a formula")
+            ps = parse_typed_list(expect_list(args[0], "variables"), head)
+            body = self.formula(args[1], scope | {p.name for p in ps})
+            return Exists(ps, body) if head == "exists" else Forall(ps, body)
+        return self.atom(s, scope)
+
+    def effects(self, e: SExpr, scope: set[str]) -> tuple[EffectItem, ...]:
+        s = expect_list(e, "an effect")
+        head = s.head()
+        args = s.items[1:]
+        if head == "and":
+            return tuple(x for a in args for x in self.effects(a, scope))
+        if head == "not":
+            return (Not(self.atom(expect_list(args[0], "an atom"), scope)),)
+        if head == "when":
+            cond = self.formula(args[0], scope)
+            return (When(cond, self.effects(args[1], scope)),)
+        if head == "forall":
+            ps = parse_typed_list(expect_list(args[0], "variables"), "forall")
+            return (ForallEffect(ps, self.effects(args[1], scope | {p.name for p in ps})),)
+        if head == "increase":
+            return (self._increase(s, scope),)
+        if head in ("decrease", "assign", "scale-up", "scale-down"):
+            raise s.pos.error(f"numeric effect '{head}' is not supported (only total-cost)")
+        return (self.atom(s, scope),)
+
+    def _increase(self, s: SList, scope: set[str]) -> Increase:
+        if len(s) != 3:
+            raise s.pos.error("expected '(increase (total-cost) AMOUNT)'")
+        target = expect_list(s[1], "'(total-cost)'")
+        if target.head() != "total-cost":
+            raise target.pos.error("only '(total-cost)' can be increased")
+        return Increase(self.num(s[2], scope))
+
+    def num(self, e: SExpr, scope: set[str]) -> NumExpr:
+        if isinstance(e, Sym):
+            try:
+                return float(e.text)
+            except ValueError:
+                raise e.pos.error(
+                    f"expected a number or a function term, found '{e.text}'"
+                ) from None
+        name = expect_sym(e[0], "a function name").text
+        args = tuple(expect_sym(a, "an argument").text for a in e.items[1:])
+        for a in args:
+            if a.startswith("?") and a not in scope:
+                raise e.pos.error(f"variable '{a}' is not bound here")
+        sig = self.r.functions.get(name)
+        if sig is not None and sig.arity != len(args):
+            raise e.pos.error(f"function '{name}' takes {sig.arity} arguments, given {len(args)}")
+        if sig is None:
+            self.r.functions[name] = Signature(
+                name, tuple(Param(f"?x{i}") for i in range(len(args)))
+            )
+        return FuncTerm(name, args)
+
+
+def reader_for_formulas(domain: Domain) -> _FormulaReader:
+    """A formula reader that knows ``domain``'s predicates (for problems and goals)."""
+    r = _DomainReader(domain.filename)
+    r.predicates = dict(domain.predicates)
+    r.undeclared = dict(domain.undeclared)
+    r.functions = dict(domain.functions)
+    return _FormulaReader(r)
+
+
+__all__ = [
+    "Action",
+    "Derived",
+    "Domain",
+    "Signature",
+    "parse_domain",
+    "parse_typed_list",
+    "read_domain",
+    "reader_for_formulas",
+]

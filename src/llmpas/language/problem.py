@@ -1,0 +1,315 @@
+"""Problems: objects (names bound to Python values), init atoms, a goal, and bound streams."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+from llmpas.language.bindings import BoundFunction, BoundStream, StreamInfo, bind
+from llmpas.language.domain import Domain, parse_typed_list, read_domain, reader_for_formulas
+from llmpas.language.errors import ModelError
+from llmpas.language.logic import (
+    And,
+    Atom,
+    Exists,
+    Forall,
+    Formula,
+    FuncTerm,
+    Imply,
+    Not,
+    Or,
+    atoms_of,
+    is_var,
+)
+from llmpas.language.sexpr import SExpr, SList, expect_list, expect_sym, parse_all, parse_one
+from llmpas.language.streams import EMPTY_STREAMS, StreamSpec, read_streams
+
+
+class ValueNamer:
+    """Gives Python values PDDL names: equal hashable values share one, others go by identity."""
+
+    def __init__(self, taken: Iterable[str] = (), prefix: str = "v") -> None:
+        self.taken = set(taken)
+        self.prefix = prefix
+        self.by_key: dict[Any, str] = {}
+        self.values: dict[str, Any] = {}
+
+    def name(self, value: Any) -> str:
+        if isinstance(value, str):
+            return value.lower()
+        try:
+            key: Any = ("h", type(value), value)
+            hash(key)
+        except TypeError:
+            key = ("id", id(value))
+        if key not in self.by_key:
+            n = len(self.by_key)
+            while f"{self.prefix}{n}" in self.taken:
+                n += 1
+            nm = f"{self.prefix}{n}"
+            self.taken.add(nm)
+            self.by_key[key] = nm
+            self.values[nm] = value
+        return self.by_key[key]
+
+
+@dataclass(frozen=True, eq=False)
+class Problem:
+    """A complete, checked planning problem. Build with :meth:`create` or :func:`read_problem`."""
+
+    domain: Domain
+    streams: StreamSpec
+    objects: Mapping[str, Any]  # name -> Python value (the name itself for symbolic objects)
+    init: frozenset[Atom]
+    goal: Formula
+    bound_streams: Mapping[str, BoundStream] = field(default_factory=dict)
+    bound_functions: Mapping[str, BoundFunction] = field(default_factory=dict)
+    costs: Mapping[FuncTerm, float] = field(default_factory=dict)
+    object_types: Mapping[str, str] = field(default_factory=dict)
+    name: str = "problem"
+
+    def __post_init__(self) -> None:
+        for attr in ("objects", "bound_streams", "bound_functions", "costs", "object_types"):
+            object.__setattr__(self, attr, MappingProxyType(dict(getattr(self, attr))))
+        object.__setattr__(self, "init", frozenset(self.init))
+        _check_problem(self)
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def create(
+        cls,
+        domain: Domain,
+        streams: StreamSpec = EMPTY_STREAMS,
+        *,
+        init: Iterable[Atom | tuple[Any, ...]],
+        goal: Formula | str | Iterable[Atom | tuple[Any, ...]],
+        implementations: Mapping[str, Any] | None = None,
+        info: Mapping[str, StreamInfo] | None = None,
+        objects: Iterable[str] = (),
+        costs: Mapping[tuple[Any, ...], float] | None = None,
+        name: str = "problem",
+    ) -> Problem:
+        """Build a problem from Python: init atoms may hold arbitrary values (poses, arrays)."""
+        namer = ValueNamer(taken=[c.name for c in domain.constants] + [o.lower() for o in objects])
+        atoms = [_atom_from(x, namer) for x in init]
+        goal_f = _goal_from(goal, domain, namer)
+        cost_map = {
+            FuncTerm(str(k[0]).lower(), tuple(namer.name(a) for a in k[1:])): float(v)
+            for k, v in (costs or {}).items()
+        }
+        names = {o.lower() for o in objects} | {t for a in atoms for t in a.args}
+        names |= {t for a in atoms_of(goal_f) for t in a.args if not is_var(t)}
+        names -= {c.name for c in domain.constants}
+        values = {n: namer.values.get(n, n) for n in names}
+        bs, bf = bind(streams, implementations or {}, info)
+        return cls(domain, streams, values, frozenset(atoms), goal_f, bs, bf, cost_map, name=name)
+
+    def with_state(
+        self,
+        init: Iterable[Atom],
+        goal: Formula | None = None,
+        objects: Mapping[str, Any] | None = None,
+    ) -> Problem:
+        """The same problem from another state (and goal): what replanning uses."""
+        return replace(
+            self,
+            init=frozenset(init),
+            goal=self.goal if goal is None else goal,
+            objects={**self.objects, **(objects or {})},
+        )
+
+    def value(self, name: str) -> Any:
+        return self.objects.get(name, name)
+
+    @property
+    def all_objects(self) -> tuple[str, ...]:
+        return tuple(sorted(set(self.objects) | {c.name for c in self.domain.constants}))
+
+
+def _atom_from(x: Atom | tuple[Any, ...], namer: ValueNamer) -> Atom:
+    if isinstance(x, Atom):
+        return x
+    if not x or not isinstance(x[0], str):
+        raise ModelError(f"an init atom must start with a predicate name: {x!r}")
+    return Atom(x[0].lower(), tuple(namer.name(a) for a in x[1:]))
+
+
+def _goal_from(goal: Any, domain: Domain, namer: ValueNamer) -> Formula:
+    if isinstance(goal, str):
+        return parse_formula(goal, domain, "<goal>")
+    if isinstance(goal, Atom | Not | And | Or | Imply | Exists | Forall):
+        return goal
+    return And(tuple(_atom_from(g, namer) for g in goal))
+
+
+def parse_formula(text: str, domain: Domain, filename: str = "<formula>") -> Formula:
+    """Read one formula (e.g. a goal) against ``domain``'s predicates."""
+    exprs = parse_all(text, filename)
+    if len(exprs) != 1:
+        raise ModelError(f"{filename}: expected exactly one formula, found {len(exprs)}")
+    return reader_for_formulas(domain).formula(exprs[0], set())
+
+
+# ------------------------------------------------------------------------------ checking
+
+
+def known_predicates(domain: Domain, streams: StreamSpec) -> dict[str, int]:
+    """Predicate -> arity for everything a problem may mention."""
+    out = {n: s.arity for n, s in domain.predicates.items()}
+    for n, (arity, _) in domain.undeclared.items():
+        out.setdefault(n, arity)
+    for n, arity in streams.certified_predicates.items():
+        out.setdefault(n, arity)
+    for s in streams.streams:
+        for a in s.domain:
+            out.setdefault(a.predicate, len(a.args))
+    out["="] = 2
+    return out
+
+
+def _check_problem(p: Problem) -> None:
+    certified = p.streams.certified_predicates
+    for pred, (arity, pos) in p.domain.undeclared.items():
+        if pred not in certified:
+            raise pos.error(f"predicate '{pred}' is neither declared nor certified by a stream")
+        if certified[pred] != arity:
+            raise pos.error(
+                f"'{pred}' takes {arity} arguments here but its stream certifies {certified[pred]}"
+            )
+    known = known_predicates(p.domain, p.streams)
+    objs = set(p.objects) | {c.name for c in p.domain.constants}
+    for a in sorted(p.init):
+        _check_atom(a, known, objs, "init", p.domain)
+    for a in atoms_of(p.goal):
+        _check_atom(a, known, objs | {t for t in a.args if is_var(t)}, "goal", p.domain, init=False)
+
+
+def _check_atom(
+    a: Atom, known: dict[str, int], objs: set[str], where: str, domain: Domain, init: bool = True
+) -> None:
+    if a.predicate not in known:
+        raise ModelError(f"{where}: unknown predicate {a.predicate!r} in {a}")
+    if init and a.predicate in domain.derived_names:
+        raise ModelError(f"{where}: {a} is a derived predicate; it cannot be set in init")
+    if known[a.predicate] != len(a.args):
+        raise ModelError(
+            f"{where}: {a.predicate!r} takes {known[a.predicate]} arguments, "
+            f"given {len(a.args)} in {a}"
+        )
+    for t in a.args:
+        if t not in objs:
+            raise ModelError(f"{where}: unknown object {t!r} in {a}")
+
+
+# ------------------------------------------------------------------------------ problem files
+
+
+@dataclass(frozen=True)
+class ProblemFile:
+    name: str
+    domain_name: str
+    objects: dict[str, str]
+    init: tuple[Atom, ...]
+    costs: dict[FuncTerm, float]
+    goal: Formula
+
+
+def parse_problem_text(text: str, domain: Domain, filename: str = "<problem>") -> ProblemFile:
+    root = parse_one(text, filename)
+    if root.head() != "define" or len(root) < 2:
+        raise root.pos.error("expected '(define (problem NAME) ...)'")
+    header = expect_list(root[1], "'(problem NAME)'")
+    if header.head() != "problem" or len(header) != 2:
+        raise header.pos.error("expected '(problem NAME)'")
+    objects: dict[str, str] = {}
+    init: list[Atom] = []
+    costs: dict[FuncTerm, float] = {}
+    goal: Formula | None = None
+    dom_name = domain.name
+    fr = reader_for_formulas(domain)
+    for item in root.items[2:]:
+        s = expect_list(item, "a problem section")
+        key = s.head()
+        if key == ":domain":
+            dom_name = expect_sym(s[1], "a domain name").text
+            if dom_name != domain.name:
+                raise s.pos.error(f"problem is for domain '{dom_name}', not '{domain.name}'")
+        elif key == ":objects":
+            objects.update({p.name: p.type for p in parse_typed_list(s.items[1:], ":objects")})
+        elif key == ":init":
+            _read_init(s.items[1:], init, costs)
+        elif key == ":goal":
+            goal = fr.formula(s[1], set())
+        elif key in (":metric", ":requirements"):
+            continue
+        else:
+            raise s.pos.error(f"unknown problem section '{key}'")
+    if goal is None:
+        raise root.pos.error("problem has no ':goal'")
+    return ProblemFile(
+        expect_sym(header[1], "a name").text, dom_name, objects, tuple(init), costs, goal
+    )
+
+
+def _read_init(items: tuple[SExpr, ...], init: list[Atom], costs: dict[FuncTerm, float]) -> None:
+    for x in items:
+        s = expect_list(x, "an init atom")
+        if s.head() == "=":
+            term = expect_list(s[1], "a function term")
+            head = expect_sym(term[0], "a function name").text
+            args = tuple(expect_sym(t, "an object").text for t in term.items[1:])
+            try:
+                costs[FuncTerm(head, args)] = float(expect_sym(s[2], "a number").text)
+            except ValueError:
+                raise s[2].pos.error("expected a number") from None
+            continue
+        _no_nesting(s)
+        init.append(
+            Atom(
+                expect_sym(s[0], "a predicate").text,
+                tuple(expect_sym(t, "an object").text for t in s.items[1:]),
+            )
+        )
+
+
+def _no_nesting(s: SList) -> None:
+    if s.head() in ("not", "and", "or"):
+        raise s.pos.error(f"init holds atoms only, found '{s.head()}'")
+    for t in s.items[1:]:
+        if isinstance(t, SList):
+            raise t.pos.error("init atoms take object names as arguments")
+
+
+def read_problem(
+    domain: str | Path | Domain,
+    problem: str | Path,
+    streams: str | Path | StreamSpec | None = None,
+    implementations: Mapping[str, Any] | None = None,
+    info: Mapping[str, StreamInfo] | None = None,
+) -> Problem:
+    """Read ``domain.pddl`` + ``problem.pddl`` (+ ``stream.pddl``) and bind implementations."""
+    dom = domain if isinstance(domain, Domain) else read_domain(domain)
+    if streams is None:
+        spec = EMPTY_STREAMS
+    elif isinstance(streams, StreamSpec):
+        spec = streams
+    else:
+        spec = read_streams(streams)
+    path = Path(problem)
+    pf = parse_problem_text(path.read_text(encoding="utf-8"), dom, str(path))
+    bs, bf = bind(spec, implementations or {}, info)
+    return Problem(
+        dom,
+        spec,
+        {o: o for o in pf.objects},
+        frozenset(pf.init),
+        pf.goal,
+        bs,
+        bf,
+        pf.costs,
+        pf.objects,
+        name=pf.name,
+    )

@@ -1,0 +1,145 @@
+"""A small s-expression reader with source positions, for PDDL and stream files.
+
+Symbols are lower-cased (PDDL is case-insensitive); ``;`` starts a comment that runs to the end of
+the line, wherever it stands.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+from llmpas.language.errors import PddlSyntaxError
+
+
+@dataclass(frozen=True)
+class Pos:
+    filename: str
+    line: int
+    col: int
+
+    def error(self, message: str) -> PddlSyntaxError:
+        return PddlSyntaxError(self.filename, self.line, self.col, message)
+
+
+@dataclass(frozen=True)
+class Sym:
+    """An atom of the text: a name, a ``?variable``, a ``:keyword`` or a number."""
+
+    text: str
+    pos: Pos
+
+    def __str__(self) -> str:
+        return self.text
+
+
+@dataclass(frozen=True)
+class SList:
+    """A parenthesised list."""
+
+    items: tuple[SExpr, ...]
+    pos: Pos
+
+    def __len__(self) -> int:
+        return len(self.items)
+
+    def __iter__(self) -> Iterator[SExpr]:
+        return iter(self.items)
+
+    def __getitem__(self, i: int) -> SExpr:
+        return self.items[i]
+
+    def head(self) -> str | None:
+        """The lower-case first symbol, or None when the list is empty or starts with a list."""
+        if self.items and isinstance(self.items[0], Sym):
+            return self.items[0].text
+        return None
+
+
+SExpr = Sym | SList
+
+
+def _tokens(text: str, filename: str) -> Iterator[tuple[str, Pos]]:
+    line, col, i, n = 1, 1, 0, len(text)
+    while i < n:
+        c = text[i]
+        if c == "\n":
+            line, col, i = line + 1, 1, i + 1
+        elif c.isspace():
+            col, i = col + 1, i + 1
+        elif c == ";":
+            while i < n and text[i] != "\n":
+                i += 1
+        elif c in "()":
+            yield c, Pos(filename, line, col)
+            col, i = col + 1, i + 1
+        else:
+            start = i
+            while i < n and not text[i].isspace() and text[i] not in "();":
+                i += 1
+            yield text[start:i], Pos(filename, line, col)
+            col += i - start
+
+
+def parse_all(text: str, filename: str = "<string>") -> tuple[SExpr, ...]:
+    """Read every top-level expression of ``text``."""
+    stack: list[tuple[Pos, list[SExpr]]] = []
+    top: list[SExpr] = []
+    for tok, pos in _tokens(text, filename):
+        if tok == "(":
+            stack.append((pos, []))
+        elif tok == ")":
+            if not stack:
+                raise pos.error("unexpected ')' with no matching '('")
+            opened, items = stack.pop()
+            node = SList(tuple(items), opened)
+            (stack[-1][1] if stack else top).append(node)
+        else:
+            sym = Sym(tok.lower(), pos)
+            (stack[-1][1] if stack else top).append(sym)
+    if stack:
+        raise stack[-1][0].error("'(' is never closed")
+    return tuple(top)
+
+
+def parse_one(text: str, filename: str = "<string>") -> SList:
+    """Read a file that holds exactly one parenthesised expression."""
+    exprs = parse_all(text, filename)
+    if not exprs:
+        raise Pos(filename, 1, 1).error("empty file: expected '(define ...)'")
+    if len(exprs) > 1:
+        raise exprs[1].pos.error("unexpected text after the end of the definition")
+    first = exprs[0]
+    if not isinstance(first, SList):
+        raise first.pos.error(f"expected '(define ...)', found '{first.text}'")
+    return first
+
+
+def expect_list(e: SExpr, what: str) -> SList:
+    if not isinstance(e, SList):
+        raise e.pos.error(f"expected {what} in parentheses, found '{e.text}'")
+    return e
+
+
+def expect_sym(e: SExpr, what: str) -> Sym:
+    if not isinstance(e, Sym):
+        raise e.pos.error(f"expected {what}, found a parenthesised list")
+    return e
+
+
+def keyword_sections(
+    items: tuple[SExpr, ...], what: str
+) -> Iterator[tuple[Sym, tuple[SExpr, ...]]]:
+    """Split ``:key v1 v2 :key2 v3`` into (key, values) pairs."""
+    i = 0
+    while i < len(items):
+        key = items[i]
+        if not isinstance(key, Sym) or not key.text.startswith(":"):
+            raise items[i].pos.error(f"expected a ':keyword' in {what}")
+        j = i + 1
+        while j < len(items) and not (
+            isinstance(items[j], Sym) and items[j].text.startswith(":")  # type: ignore[union-attr]
+        ):
+            j += 1
+        yield key, items[i + 1 : j]
+        i = j

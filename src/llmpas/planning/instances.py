@@ -1,0 +1,281 @@
+"""Stream instances during one planning run: what was evaluated, and what is only assumed.
+
+:class:`StreamStore` holds the *real* facts (init plus what evaluated streams certified) and one
+record per stream instance (a stream applied to concrete inputs). :func:`optimistic_instances`
+computes the optimistic closure: every instance that could be applied, with placeholder outputs
+``#oN`` standing for values not computed yet.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import time
+from collections import Counter
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+from llmpas.language.bindings import BoundStream
+from llmpas.language.domain import Domain
+from llmpas.language.logic import (
+    And,
+    Atom,
+    Exists,
+    Forall,
+    Formula,
+    FuncTerm,
+    Not,
+    Or,
+    Substitution,
+)
+from llmpas.language.problem import Problem, ValueNamer
+from llmpas.language.semantics import Evaluator, State, Universe, nnf
+
+log = logging.getLogger(__name__)
+
+OPTIMISTIC_PREFIX = "#o"
+
+
+def is_optimistic(name: str) -> bool:
+    return name.startswith(OPTIMISTIC_PREFIX)
+
+
+class StreamFailure(RuntimeError):
+    """A user stream raised an exception; the message names the stream instance."""
+
+
+@dataclass
+class Record:
+    """The evaluation history of one stream instance (mutable, private to a planning run)."""
+
+    bound: BoundStream
+    inputs: tuple[str, ...]
+    iterator: Iterator[tuple[Any, ...]] | None = None
+    calls: int = 0
+    outputs: list[tuple[str, ...]] = field(default_factory=list)
+    exhausted: bool = False
+
+
+@dataclass(frozen=True)
+class OptInstance:
+    """An instance in the optimistic closure: inputs may themselves be placeholders."""
+
+    stream: BoundStream
+    inputs: tuple[str, ...]
+    outputs: tuple[str, ...]
+    certified: tuple[Atom, ...]
+    level: int
+    effort: float  # expected cost of evaluating it: overhead, growing with earlier calls
+
+    @property
+    def key(self) -> tuple[str, tuple[str, ...]]:
+        return self.stream.schema.name, self.inputs
+
+    @property
+    def inst_atom(self) -> Atom:
+        return Atom(inst_predicate(self.stream.schema.name), self.inputs + self.outputs)
+
+    @property
+    def effort_term(self) -> FuncTerm:
+        return FuncTerm(effort_function(self.stream.schema.name), self.inputs + self.outputs)
+
+
+def inst_predicate(stream: str) -> str:
+    return f"inst__{stream}"
+
+
+def effort_function(stream: str) -> str:
+    return f"effort__{stream}"
+
+
+def rejected_predicate(pred: str) -> str:
+    return f"rejected__{pred}"
+
+
+def join(atoms: tuple[Atom, ...], state: State) -> Iterator[dict[str, str]]:
+    """Bindings of the variables of a conjunction of positive atoms in ``state``."""
+    universe = Universe(_JOIN_DOMAIN, {})
+    yield from Evaluator(universe, state).solve(And(atoms), {}, {})
+
+
+class StreamStore:
+    """Real facts, object values and stream-instance records of one planning run."""
+
+    def __init__(self, problem: Problem, deadline: float) -> None:
+        self.problem = problem
+        self.deadline = deadline
+        self.facts: set[Atom] = set(problem.init)
+        self.rejected: set[Atom] = set()
+        self.namer = ValueNamer(taken=problem.all_objects, prefix="s")
+        self.values: dict[str, Any] = dict(problem.objects)
+        self.records: dict[tuple[str, tuple[str, ...]], Record] = {}
+        self.calls: Counter[str] = Counter()
+        self.time = 0.0
+
+    def record(self, bound: BoundStream, inputs: tuple[str, ...]) -> Record:
+        key = (bound.schema.name, inputs)
+        if key not in self.records:
+            self.records[key] = Record(bound, inputs)
+        return self.records[key]
+
+    def call(self, rec: Record) -> tuple[str, ...] | None:
+        """One more output of the instance (names of new objects), or None when it has none."""
+        if rec.exhausted:
+            return None
+        start = time.perf_counter()
+        try:
+            out = self._next(rec)
+        finally:
+            self.time += time.perf_counter() - start
+            self.calls[rec.bound.schema.name] += 1
+            rec.calls += 1
+        schema = rec.bound.schema
+        if out is None:
+            rec.exhausted = True
+            if schema.is_test:
+                sub = Substitution(dict(zip(schema.inputs, rec.inputs, strict=True)))
+                self.rejected |= {
+                    Atom(rejected_predicate(a.predicate), sub.atom(a).args)
+                    for a in schema.certified
+                }
+            return None
+        names = tuple(self._name(v) for v in out)
+        rec.outputs.append(names)
+        sub = Substitution(
+            dict(zip(schema.inputs + schema.outputs, rec.inputs + names, strict=True))
+        )
+        self.facts |= {sub.atom(a) for a in schema.certified}
+        if schema.is_test or rec.calls >= rec.bound.info.max_outputs:
+            rec.exhausted = True
+        return names
+
+    def _next(self, rec: Record) -> tuple[Any, ...] | None:
+        if rec.iterator is None:
+            values = tuple(self.values.get(n, n) for n in rec.inputs)
+            fluents = self._fluents(rec.bound)
+            rec.iterator = rec.bound.outputs(values, fluents)
+        iterator = rec.iterator
+        return self._guard(rec, lambda: next(iterator, None))
+
+    def _guard(self, rec: Record, fn: Callable[[], Any]) -> Any:
+        try:
+            return fn()
+        except Exception as e:  # a user's stream failed: say which instance
+            args = " ".join(rec.inputs)
+            raise StreamFailure(
+                f"stream {rec.bound.schema.name}({args}) raised {type(e).__name__}: {e}"
+            ) from e
+
+    def _fluents(self, bound: BoundStream) -> list[Atom]:
+        preds = set(bound.schema.fluents)
+        return sorted(a for a in self.facts if a.predicate in preds)
+
+    def _name(self, value: Any) -> str:
+        name = self.namer.name(value)
+        self.values.setdefault(name, value)
+        return name
+
+    def out_of_time(self) -> bool:
+        return time.perf_counter() > self.deadline
+
+
+def negative_test_predicates(problem: Problem) -> set[str]:
+    """Predicates certified by test streams that occur negated in the domain or goal."""
+    tests = {a.predicate for s in problem.streams.streams if s.is_test for a in s.certified}
+    formulas: list[Formula] = [problem.goal]
+    formulas += [a.precondition for a in problem.domain.actions]
+    formulas += [d.body for d in problem.domain.derived]
+    found: set[str] = set()
+    for f in formulas:
+        found |= {a.predicate for a in _negated_atoms(nnf(f))} & tests
+    return found
+
+
+def _negated_atoms(f: Formula) -> Iterator[Atom]:
+    """Atoms under ``not`` in a formula in negation normal form."""
+    match f:
+        case Not(Atom() as a):
+            yield a
+        case And(parts) | Or(parts):
+            for p in parts:
+                yield from _negated_atoms(p)
+        case Exists(_, body) | Forall(_, body):
+            yield from _negated_atoms(body)
+
+
+def evaluate_negative_tests(store: StreamStore, streams: Iterable[BoundStream]) -> None:
+    """Evaluate every not-yet-evaluated real binding of the given test streams."""
+    state = State(store.facts)
+    for bound in streams:
+        for env in list(join(bound.schema.domain, state)):
+            inputs = tuple(env[v] for v in bound.schema.inputs)
+            rec = store.record(bound, inputs)
+            if rec.calls == 0:
+                store.call(rec)
+            if store.out_of_time():
+                return
+
+
+def optimistic_instances(
+    store: StreamStore,
+    allowed: Callable[[BoundStream], bool],
+    max_level: int,
+    limit: int = 50_000,
+) -> list[OptInstance]:
+    """The optimistic closure of the real facts under the allowed, non-exhausted instances."""
+    facts = set(store.facts)
+    level: dict[str, int] = {}
+    seen: set[tuple[str, tuple[str, ...]]] = set()
+    out: list[OptInstance] = []
+    counter = itertools.count(1)
+    streams = [b for b in store.problem.bound_streams.values() if allowed(b)]
+    changed = True
+    while changed:
+        changed = False
+        state = State(facts)
+        for bound in streams:
+            for inst in _new_instances(bound, state, store, seen, level, max_level, counter):
+                out.append(inst)
+                facts |= set(inst.certified)
+                changed = True
+                if len(out) > limit:
+                    raise RuntimeError(
+                        f"more than {limit} optimistic stream instances; lower max_level or "
+                        "give stream :domain facts that restrict inputs"
+                    )
+    return out
+
+
+def _new_instances(
+    bound: BoundStream,
+    state: State,
+    store: StreamStore,
+    seen: set[tuple[str, tuple[str, ...]]],
+    level: dict[str, int],
+    max_level: int,
+    counter: Iterator[int],
+) -> Iterator[OptInstance]:
+    schema = bound.schema
+    for env in list(join(schema.domain, state)):
+        inputs = tuple(env[v] for v in schema.inputs)
+        key = (schema.name, inputs)
+        if key in seen:
+            continue
+        rec = store.records.get(key)
+        if rec is not None and rec.exhausted:
+            continue
+        lvl = 1 + max((level.get(i, 0) for i in inputs), default=0)
+        if lvl > max_level:
+            continue
+        seen.add(key)
+        outputs = tuple(f"{OPTIMISTIC_PREFIX}{next(counter)}" for _ in schema.outputs)
+        level.update(dict.fromkeys(outputs, lvl))
+        sub = Substitution(dict(zip(schema.inputs + schema.outputs, inputs + outputs, strict=True)))
+        calls = rec.calls if rec is not None else 0
+        effort = bound.info.overhead * (1 + calls) / bound.info.p_success
+        certified = tuple(sub.atom(a) for a in schema.certified)
+        yield OptInstance(bound, inputs, outputs, certified, lvl, effort)
+
+
+_JOIN_DOMAIN = Domain("join")  # immutable; joins of positive atoms need no types

@@ -1,0 +1,136 @@
+"""Typed planner results: a status enum, the plan, and where the time went."""
+
+from __future__ import annotations
+
+import enum
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any, Literal
+
+from llmpas.language.logic import Atom
+
+
+class PlanStatus(enum.Enum):
+    SOLVED = "solved"
+    UNSOLVABLE = "unsolvable"
+    TIMEOUT = "timeout"
+    ERROR = "error"
+
+
+@dataclass(frozen=True)
+class StreamInstance:
+    """One call site of a stream: its inputs and the names of its outputs."""
+
+    stream: str
+    inputs: tuple[str, ...]
+    outputs: tuple[str, ...]
+
+    def __str__(self) -> str:
+        outs = f" -> ({' '.join(self.outputs)})" if self.outputs else ""
+        return f"{self.stream}({' '.join(self.inputs)}){outs}"
+
+
+@dataclass(frozen=True)
+class PlanStep:
+    """A ground action, with the deferred stream instances the executor must satisfy for it."""
+
+    action: str
+    args: tuple[str, ...]
+    deferred: tuple[StreamInstance, ...] = ()
+
+    def __str__(self) -> str:
+        return "(" + " ".join((self.action, *self.args)) + ")"
+
+
+@dataclass(frozen=True, eq=False)
+class Plan:
+    steps: tuple[PlanStep, ...]
+    cost: float
+    # every object name the plan mentions -> its Python value (placeholders of deferred streams
+    # map to None until the executor evaluates them)
+    objects: Mapping[str, Any] = field(default_factory=dict)
+    # facts produced by evaluated streams plus those assumed for deferred ones
+    certified: frozenset[Atom] = frozenset()
+    # deferred stream instances in the order they are needed, with what they certify
+    deferred: tuple[StreamInstance, ...] = ()
+    deferred_facts: Mapping[StreamInstance, tuple[Atom, ...]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "objects", MappingProxyType(dict(self.objects)))
+        object.__setattr__(self, "deferred_facts", MappingProxyType(dict(self.deferred_facts)))
+        if self.cost < 0:
+            raise ValueError(f"plan cost must be >= 0, got {self.cost}")
+
+    def __len__(self) -> int:
+        return len(self.steps)
+
+    @property
+    def placeholders(self) -> frozenset[str]:
+        return frozenset(o for inst in self.deferred for o in inst.outputs)
+
+
+@dataclass(frozen=True)
+class PlanStats:
+    algorithm: str = ""
+    iterations: int = 0
+    stream_calls: Mapping[str, int] = field(default_factory=dict)
+    stream_time: float = 0.0
+    translate_time: float = 0.0
+    search_time: float = 0.0
+    total_time: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "stream_calls", MappingProxyType(dict(self.stream_calls)))
+
+
+@dataclass(frozen=True)
+class PlanResult:
+    status: PlanStatus
+    plan: Plan | None
+    stats: PlanStats
+    message: str = ""
+
+    def __post_init__(self) -> None:
+        if (self.plan is not None) != (self.status is PlanStatus.SOLVED):
+            raise ValueError("a plan is present exactly when the status is SOLVED")
+
+    @property
+    def solved(self) -> bool:
+        return self.status is PlanStatus.SOLVED
+
+    def to_json(self) -> dict[str, Any]:
+        s = self.stats
+        out: dict[str, Any] = {
+            "status": self.status.value,
+            "message": self.message,
+            "stats": {
+                "algorithm": s.algorithm,
+                "iterations": s.iterations,
+                "stream_calls": dict(s.stream_calls),
+                "stream_time": s.stream_time,
+                "translate_time": s.translate_time,
+                "search_time": s.search_time,
+                "total_time": s.total_time,
+            },
+        }
+        if self.plan is not None:
+            out["plan"] = {
+                "cost": self.plan.cost,
+                "steps": [
+                    {
+                        "action": st.action,
+                        "args": list(st.args),
+                        "deferred": [str(d) for d in st.deferred],
+                    }
+                    for st in self.plan.steps
+                ],
+            }
+        return out
+
+    def dumps(self) -> str:
+        return json.dumps(self.to_json(), indent=2)
+
+
+Algorithm = Literal["focused", "incremental"]
