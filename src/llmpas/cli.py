@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import importlib.util
 import logging
 import sys
 from collections.abc import Callable, Mapping, Sequence
@@ -54,24 +55,38 @@ def _planner_config(args: argparse.Namespace) -> PlannerConfig:
 
 
 def _load_bindings(spec: str | None) -> Mapping[str, Any]:
+    """``MODULE:NAME`` or ``path/to/file.py:NAME`` -> the mapping stream name -> implementation."""
     if spec is None:
         return {}
-    module_name, _, attr = spec.partition(":")
-    if not attr:
-        raise CliError(f"--bindings {spec!r}: expected MODULE:NAME, e.g. mypkg.streams:STREAMS")
-    sys.path.insert(0, str(Path.cwd()))
+    where, _, attr = spec.rpartition(":")
+    if not where or not attr:
+        raise CliError(f"--bindings {spec!r}: expected MODULE:NAME or FILE.py:NAME")
     try:
-        obj = getattr(importlib.import_module(module_name), attr)
-    except (ImportError, AttributeError) as e:
+        module = _import(where)
+        obj = getattr(module, attr)
+    except (ImportError, AttributeError, OSError) as e:
         raise CliError(f"--bindings {spec!r}: {e}") from None
-    finally:
-        sys.path.pop(0)
-    value = obj() if callable(obj) else obj
+    try:
+        value = obj if isinstance(obj, Mapping) or not callable(obj) else obj()
+    except TypeError as e:
+        raise CliError(f"--bindings {spec!r}: calling it failed: {e}") from None
     if not isinstance(value, Mapping):
-        raise CliError(
-            f"--bindings {spec!r} is {type(value).__name__}, not a mapping name -> stream"
-        )
+        raise CliError(f"--bindings {spec!r} is {type(value).__name__}, not a mapping")
     return value
+
+
+def _import(where: str) -> Any:
+    if not where.endswith(".py"):
+        return importlib.import_module(where)
+    path = Path(where)
+    if not path.is_file():
+        raise ImportError(f"{where}: no such file")
+    spec = importlib.util.spec_from_file_location(f"llmpas_bindings_{path.stem}", path)
+    if spec is None or spec.loader is None:
+        raise ImportError(f"{where}: cannot be imported")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def _problem_from_args(args: argparse.Namespace) -> Problem:

@@ -14,10 +14,14 @@ callable is wrapped by what its declaration says and what it returns.
 from __future__ import annotations
 
 import inspect
+import math
+import numbers
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
+
+import numpy as np
 
 from llmpas.language.errors import BindingError
 from llmpas.language.streams import FunctionSchema, StreamSchema, StreamSpec
@@ -98,7 +102,7 @@ class BoundStream:
         kwargs = {"fluents": list(fluents)} if self.schema.fluents else {}
         result = self.impl.fn(*inputs, **kwargs)
         if self.schema.is_test:
-            if not isinstance(result, bool | int) and result is not None:
+            if not isinstance(result, bool | np.bool_ | int) and result is not None:
                 raise BindingError(
                     f"test stream {self.schema.name!r} returned {type(result).__name__}, not bool"
                 )
@@ -141,10 +145,12 @@ class BoundFunction:
 
     def value(self, inputs: tuple[Any, ...]) -> float:
         v = self.impl.fn(*inputs)
-        if isinstance(v, bool) or not isinstance(v, int | float):
+        if isinstance(v, bool | np.bool_) or not isinstance(v, numbers.Real):
             raise BindingError(f"function {self.schema.name!r} returned {v!r}, not a number")
-        if v < 0:
-            raise BindingError(f"function {self.schema.name!r} returned {v}, costs must be >= 0")
+        if not (v >= 0 and math.isfinite(v)):
+            raise BindingError(
+                f"function {self.schema.name!r} returned {v}, costs must be finite and >= 0"
+            )
         return float(v)
 
 

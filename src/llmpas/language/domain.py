@@ -34,6 +34,7 @@ from llmpas.language.logic import (
     When,
     params_text,
     render_effects,
+    typed_list,
 )
 from llmpas.language.sexpr import (
     Pos,
@@ -72,7 +73,7 @@ class Signature:
         return len(self.params)
 
     def __str__(self) -> str:
-        return "(" + " ".join((self.name, *map(str, self.params))) + ")"
+        return f"({self.name} {typed_list(self.params)})" if self.params else f"({self.name})"
 
 
 @dataclass(frozen=True)
@@ -169,23 +170,28 @@ class Domain:
             derived=self.derived + tuple(derived),
         )
 
-    def to_pddl(self) -> str:
-        """Standard PDDL that declares every requirement and predicate the body uses."""
+    def to_pddl(self, numeric_fluents: bool = False) -> str:
+        """Standard PDDL that declares every requirement and predicate the body uses.
+
+        Fast Downward reads functions other than ``total-cost`` under ``:action-costs`` and
+        rejects ``:numeric-fluents``; strict readers (the ``pddl`` package) want it declared:
+        ``numeric_fluents=True`` adds it when such functions exist."""
         preds = dict(self.predicates)
         for name, (arity, _) in self.undeclared.items():
             preds.setdefault(name, Signature(name, tuple(Param(f"?x{i}") for i in range(arity))))
         for d in self.derived:
             preds.setdefault(d.head.name, d.head)
-        lines = [
-            f"(define (domain {self.name})",
-            f"  (:requirements {' '.join(FULL_REQUIREMENTS)})",
-        ]
+        funcs = [str(f) for f in self.functions.values() if f.name != "total-cost"]
+        requirements = FULL_REQUIREMENTS + (
+            (":numeric-fluents",) if numeric_fluents and funcs else ()
+        )
+        lines = [f"(define (domain {self.name})", f"  (:requirements {' '.join(requirements)})"]
         if self.types:
             lines.append("  (:types " + " ".join(f"{t} - {p}" for t, p in self.types.items()) + ")")
         if self.constants:
-            lines.append("  (:constants " + " ".join(map(str, self.constants)) + ")")
-        lines.append("  (:predicates " + " ".join(str(p) for p in preds.values()) + ")")
-        funcs = [str(f) for f in self.functions.values() if f.name != "total-cost"]
+            lines.append("  (:constants " + typed_list(self.constants) + ")")
+        if preds:
+            lines.append("  (:predicates " + " ".join(str(p) for p in preds.values()) + ")")
         if self.uses_costs():
             funcs.append("(total-cost)")
         if funcs:
@@ -265,6 +271,7 @@ class _DomainReader:
     derived: list[tuple[Signature, SExpr, Pos]] = field(default_factory=list)
     actions: list[tuple[SList, Pos]] = field(default_factory=list)
     undeclared: dict[str, tuple[int, Pos]] = field(default_factory=dict)
+    derived_names: set[str] = field(default_factory=set)
 
     def section(self, s: SList) -> None:
         key = s.head()
@@ -288,6 +295,8 @@ class _DomainReader:
             self.derived.append(
                 (_signature(expect_list(body[0], "a derived head")), body[1], s.pos)
             )
+        elif key is None:
+            raise s.pos.error("expected a domain section such as '(:action ...)', found '()'")
         elif key == ":action":
             self.actions.append((s, s.pos))
         elif key == ":constraints":
@@ -308,8 +317,14 @@ class _DomainReader:
             i += 1
 
     def build(self) -> Domain:
-        for sig, _, _ in self.derived:
-            self.predicates.setdefault(sig.name, sig)
+        for sig, _, pos in self.derived:
+            declared = self.predicates.setdefault(sig.name, sig)
+            if declared.arity != sig.arity:
+                raise pos.error(
+                    f"derived '{sig.name}' has {sig.arity} parameters but is declared with "
+                    f"{declared.arity}"
+                )
+        self.derived_names = {sig.name for sig, _, _ in self.derived}
         fr = _FormulaReader(self)
         derived = tuple(
             Derived(sig, fr.formula(body, {p.name for p in sig.params}))
@@ -337,12 +352,19 @@ class _DomainReader:
         pre: Formula = TRUE
         effects: tuple[EffectItem, ...] = ()
         sections = list(keyword_sections(s.items[2:], f"action '{name}'"))
+        seen: set[str] = set()
+        for key, _ in sections:
+            if key.text in seen:
+                raise key.pos.error(f"'{key.text}' given twice in action '{name}'")
+            seen.add(key.text)
         for key, vals in sections:
             if key.text == ":parameters":
                 params = parse_typed_list(
                     expect_list(_single(key, vals), "parameters"), "parameters"
                 )
         scope = {p.name for p in params}
+        if len(scope) != len(params):
+            raise s.pos.error(f"action '{name}' names a parameter twice")
         for key, vals in sections:
             if key.text == ":precondition":
                 v = _single(key, vals)
@@ -352,6 +374,11 @@ class _DomainReader:
             elif key.text != ":parameters":
                 raise key.pos.error(f"unknown action keyword '{key.text}' in action '{name}'")
         return Action(name, params, pre, effects)
+
+
+def _arity(s: SList, n: int, form: str) -> None:
+    if len(s.items) - 1 != n:
+        raise s.pos.error(f"expected {form}")
 
 
 def _single(key: Sym, vals: tuple[SExpr, ...]) -> SExpr:
@@ -423,23 +450,41 @@ class _FormulaReader:
 
     def effects(self, e: SExpr, scope: set[str]) -> tuple[EffectItem, ...]:
         s = expect_list(e, "an effect")
+        if not s.items:
+            return ()  # '()' is the empty effect
         head = s.head()
         args = s.items[1:]
         if head == "and":
+            for a in args:
+                if isinstance(a, SList) and not a.items:
+                    raise a.pos.error("empty '()' inside an effect conjunction")
             return tuple(x for a in args for x in self.effects(a, scope))
         if head == "not":
-            return (Not(self.atom(expect_list(args[0], "an atom"), scope)),)
+            _arity(s, 1, "'(not ATOM)'")
+            return (Not(self._effect_atom(expect_list(args[0], "an atom"), scope)),)
         if head == "when":
+            _arity(s, 2, "'(when CONDITION EFFECT)'")
             cond = self.formula(args[0], scope)
             return (When(cond, self.effects(args[1], scope)),)
         if head == "forall":
+            _arity(s, 2, "'(forall (VARIABLES) EFFECT)'")
             ps = parse_typed_list(expect_list(args[0], "variables"), "forall")
             return (ForallEffect(ps, self.effects(args[1], scope | {p.name for p in ps})),)
         if head == "increase":
             return (self._increase(s, scope),)
         if head in ("decrease", "assign", "scale-up", "scale-down"):
             raise s.pos.error(f"numeric effect '{head}' is not supported (only total-cost)")
-        return (self.atom(s, scope),)
+        return (self._effect_atom(s, scope),)
+
+    def _effect_atom(self, s: SList, scope: set[str]) -> Atom:
+        if not s.items:
+            raise s.pos.error("expected an atom, found '()'")
+        a = self.atom(s, scope)
+        if a.predicate in self.r.derived_names:
+            raise s.pos.error(f"derived predicate '{a.predicate}' cannot be an action effect")
+        if a.predicate == "=":
+            raise s.pos.error("'=' cannot be an action effect")
+        return a
 
     def _increase(self, s: SList, scope: set[str]) -> Increase:
         if len(s) != 3:
@@ -447,7 +492,10 @@ class _FormulaReader:
         target = expect_list(s[1], "'(total-cost)'")
         if target.head() != "total-cost":
             raise target.pos.error("only '(total-cost)' can be increased")
-        return Increase(self.num(s[2], scope))
+        amount = self.num(s[2], scope)
+        if isinstance(amount, float) and not amount >= 0:
+            raise s[2].pos.error(f"action costs must be >= 0, found {amount:g}")
+        return Increase(amount)
 
     def num(self, e: SExpr, scope: set[str]) -> NumExpr:
         if isinstance(e, Sym):

@@ -73,8 +73,24 @@ class Param:
         return self.name if self.type == "object" else f"{self.name} - {self.type}"
 
 
+def typed_list(params: Iterable[Param]) -> str:
+    """``?a ?b - t ?c``. Items of one type share one ``- type``; an untyped run gets an explicit
+    ``- object`` only when typed items follow it (else it would take their type)."""
+    groups: list[tuple[str, list[str]]] = []
+    for p in params:
+        if groups and groups[-1][0] == p.type:
+            groups[-1][1].append(p.name)
+        else:
+            groups.append((p.type, [p.name]))
+    parts = []
+    for i, (t, names) in enumerate(groups):
+        last = i == len(groups) - 1
+        parts.append(" ".join(names) if t == "object" and last else f"{' '.join(names)} - {t}")
+    return " ".join(parts)
+
+
 def params_text(params: Iterable[Param]) -> str:
-    return "(" + " ".join(map(str, params)) + ")"
+    return "(" + typed_list(params) + ")"
 
 
 @dataclass(frozen=True)

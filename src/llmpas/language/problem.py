@@ -93,7 +93,9 @@ class Problem:
         name: str = "problem",
     ) -> Problem:
         """Build a problem from Python: init atoms may hold arbitrary values (poses, arrays)."""
-        namer = ValueNamer(taken=[c.name for c in domain.constants] + [o.lower() for o in objects])
+        init = list(init)
+        names = _string_names(init, goal) | {o.lower() for o in objects}
+        namer = ValueNamer(taken=[c.name for c in domain.constants] + sorted(names))
         atoms = [_atom_from(x, namer) for x in init]
         goal_f = _goal_from(goal, domain, namer)
         cost_map = {
@@ -101,8 +103,14 @@ class Problem:
             for k, v in (costs or {}).items()
         }
         names = {o.lower() for o in objects} | {t for a in atoms for t in a.args}
-        names |= {t for a in atoms_of(goal_f) for t in a.args if not is_var(t)}
         names -= {c.name for c in domain.constants}
+        constants = {c.name for c in domain.constants}
+        for a in atoms_of(goal_f):
+            unknown = [t for t in a.args if not is_var(t) and t not in names | constants]
+            if unknown:
+                raise ModelError(
+                    f"goal: unknown object {unknown[0]!r} in {a} (not in init or objects)"
+                )
         values = {n: namer.values.get(n, n) for n in names}
         bs, bf = bind(streams, implementations or {}, info)
         return cls(domain, streams, values, frozenset(atoms), goal_f, bs, bf, cost_map, name=name)
@@ -127,6 +135,20 @@ class Problem:
     @property
     def all_objects(self) -> tuple[str, ...]:
         return tuple(sorted(set(self.objects) | {c.name for c in self.domain.constants}))
+
+
+def _string_names(init: Iterable[Any], goal: Any) -> set[str]:
+    """Every object name written as a string, so generated value names never take one."""
+    out: set[str] = set()
+    items = list(init) + (
+        [] if isinstance(goal, str) or not isinstance(goal, Iterable) else list(goal)
+    )
+    for x in items:
+        if isinstance(x, Atom):
+            out |= set(x.args)
+        elif isinstance(x, tuple):
+            out |= {a.lower() for a in x[1:] if isinstance(a, str)}
+    return out
 
 
 def _atom_from(x: Atom | tuple[Any, ...], namer: ValueNamer) -> Atom:
@@ -179,12 +201,38 @@ def _check_problem(p: Problem) -> None:
             raise pos.error(
                 f"'{pred}' takes {arity} arguments here but its stream certifies {certified[pred]}"
             )
+    for pred, arity in certified.items():
+        declared = p.domain.predicates.get(pred)
+        if declared is not None and declared.arity != arity:
+            raise ModelError(
+                f"{p.streams.filename}: a stream certifies '{pred}' with {arity} arguments but "
+                f"{p.domain.filename} declares it with {declared.arity}"
+            )
+        if pred in p.domain.derived_names:
+            raise ModelError(f"{p.streams.filename}: streams cannot certify derived '{pred}'")
     known = known_predicates(p.domain, p.streams)
     objs = set(p.objects) | {c.name for c in p.domain.constants}
     for a in sorted(p.init):
         _check_atom(a, known, objs, "init", p.domain)
     for a in atoms_of(p.goal):
         _check_atom(a, known, objs | {t for t in a.args if is_var(t)}, "goal", p.domain, init=False)
+    for term, value in p.costs.items():
+        _check_cost(term, value, p, objs)
+
+
+def _check_cost(term: FuncTerm, value: float, p: Problem, objs: set[str]) -> None:
+    sig = p.domain.functions.get(term.name)
+    if sig is None:
+        raise ModelError(f"init: unknown function {term.name!r} in (= {term} {value:g})")
+    if sig.arity != len(term.args):
+        raise ModelError(
+            f"init: function {term.name!r} takes {sig.arity} arguments, given {len(term.args)}"
+        )
+    for t in term.args:
+        if t not in objs:
+            raise ModelError(f"init: unknown object {t!r} in (= {term} {value:g})")
+    if not (value >= 0 and value != float("inf")):
+        raise ModelError(f"init: (= {term} {value:g}) must be a finite number >= 0")
 
 
 def _check_atom(
@@ -233,6 +281,10 @@ def parse_problem_text(text: str, domain: Domain, filename: str = "<problem>") -
     for item in root.items[2:]:
         s = expect_list(item, "a problem section")
         key = s.head()
+        if key is None:
+            raise s.pos.error("expected a problem section such as '(:init ...)', found '()'")
+        if key in (":domain", ":goal") and len(s) != 2:
+            raise s.pos.error(f"'{key}' takes exactly one value")
         if key == ":domain":
             dom_name = expect_sym(s[1], "a domain name").text
             if dom_name != domain.name:
@@ -257,14 +309,24 @@ def parse_problem_text(text: str, domain: Domain, filename: str = "<problem>") -
 def _read_init(items: tuple[SExpr, ...], init: list[Atom], costs: dict[FuncTerm, float]) -> None:
     for x in items:
         s = expect_list(x, "an init atom")
+        if not s.items or isinstance(s.items[0], SList):
+            raise s.pos.error("expected an init atom '(PREDICATE OBJECT ...)'")
         if s.head() == "=":
+            if len(s) != 3:
+                raise s.pos.error("expected '(= (FUNCTION OBJECT ...) NUMBER)'")
             term = expect_list(s[1], "a function term")
+            if not term.items:
+                raise term.pos.error("expected '(FUNCTION OBJECT ...)', found '()'")
             head = expect_sym(term[0], "a function name").text
             args = tuple(expect_sym(t, "an object").text for t in term.items[1:])
+            text = expect_sym(s[2], "a number").text
             try:
-                costs[FuncTerm(head, args)] = float(expect_sym(s[2], "a number").text)
+                value = float(text)
             except ValueError:
-                raise s[2].pos.error("expected a number") from None
+                raise s[2].pos.error(f"expected a number, found '{text}'") from None
+            if not (value >= 0 and value != float("inf")):
+                raise s[2].pos.error(f"expected a finite number >= 0, found '{text}'")
+            costs[FuncTerm(head, args)] = value
             continue
         _no_nesting(s)
         init.append(
@@ -301,15 +363,18 @@ def read_problem(
     path = Path(problem)
     pf = parse_problem_text(path.read_text(encoding="utf-8"), dom, str(path))
     bs, bf = bind(spec, implementations or {}, info)
-    return Problem(
-        dom,
-        spec,
-        {o: o for o in pf.objects},
-        frozenset(pf.init),
-        pf.goal,
-        bs,
-        bf,
-        pf.costs,
-        pf.objects,
-        name=pf.name,
-    )
+    try:
+        return Problem(
+            dom,
+            spec,
+            {o: o for o in pf.objects},
+            frozenset(pf.init),
+            pf.goal,
+            bs,
+            bf,
+            pf.costs,
+            pf.objects,
+            name=pf.name,
+        )
+    except ModelError as e:
+        raise ModelError(f"{path}: {e}") from None

@@ -116,7 +116,13 @@ class Evaluator:
                 bound = {p.name for p in ps}
                 inner = {k: v for k, v in env.items() if k not in bound}
                 seen: set[tuple[tuple[str, str], ...]] = set()
-                for e in self.solve(body, inner, {**types, **{p.name: p.type for p in ps}}):
+                qtypes = {**types, **{p.name: p.type for p in ps}}
+                for solved in self.solve(body, inner, qtypes):
+                    # a quantified variable the body left unbound still ranges over its type:
+                    # over an empty type there is no witness
+                    e = next(self._bind_all(tuple(bound), solved, qtypes), None)
+                    if e is None:
+                        continue
                     out = {k: v for k, v in e.items() if k not in bound}
                     out.update({k: v for k, v in env.items() if k in bound})
                     key = tuple(sorted(out.items()))
@@ -378,9 +384,13 @@ def replay(
     states = [frozenset(facts)]
     total = 0.0
     for i, (name, args) in enumerate(steps):
-        action = sem.domain.action(name)
         state = sem.closure(facts)
-        if not sem.applicable(action, args, state):
+        try:
+            action = sem.domain.action(name)
+            ok = sem.applicable(action, args, state)
+        except ModelError as e:
+            return Replay(False, f"step {i + 1}: {e}", total, tuple(states), i)
+        if not ok:
             msg = f"step {i + 1}: precondition of ({name} {' '.join(args)}) does not hold"
             return Replay(False, msg, total, tuple(states), i)
         facts, c = sem.apply(action, args, state)

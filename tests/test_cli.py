@@ -1,0 +1,76 @@
+"""The ``llmpas`` command line: plan on files, JSON output, and one-line errors for bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from llmpas.cli import main
+
+DATA = Path(__file__).parent / "planning" / "data"
+FILES = [
+    str(DATA / "domain.pddl"),
+    str(DATA / "problem.pddl"),
+    "--streams",
+    str(DATA / "stream.pddl"),
+    "--bindings",
+    f"{DATA / 'streams.py'}:STREAMS",
+]
+
+
+def test_plan_files_with_bindings_prints_plan(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["plan", *FILES]) == 0
+    out = capsys.readouterr().out
+    assert "solved" in out
+    assert "(place b0" in out and "(place b1" in out
+    assert "defers reach(" in out
+
+
+def test_plan_json_is_machine_readable(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["plan", *FILES, "--json", "--no-defer"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["status"] == "solved"
+    assert data["stats"]["stream_calls"]["reach"] >= 4  # eager: reach evaluated while planning
+    assert all(step["deferred"] == [] for step in data["plan"]["steps"])
+
+
+def _error_line(capsys: pytest.CaptureFixture[str]) -> str:
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0, err
+    return err
+
+
+def test_missing_file_is_one_line_error(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["plan", "nope.pddl", str(DATA / "problem.pddl")]) == 2
+    assert "nope.pddl: no such file" in _error_line(capsys)
+
+
+def test_malformed_domain_names_file_line_col(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bad = tmp_path / "domain.pddl"
+    bad.write_text("(define (domain d)\n  (:predicates (p ?x)\n  (:action a :parameters (?x)\n")
+    assert main(["plan", str(bad), str(DATA / "problem.pddl")]) == 2
+    line = _error_line(capsys)
+    assert f"{bad}:3:3:" in line and "never closed" in line
+
+
+def test_bindings_that_are_not_a_mapping(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["plan", *FILES[:4], "--bindings", "json:JSONDecoder"]) == 2
+    assert "not a mapping" in _error_line(capsys)
+
+
+def test_declared_stream_without_implementation_is_named(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert main(["plan", *FILES[:4], "--bindings", f"{DATA / 'streams.py'}:PARTIAL"]) == 2
+    line = _error_line(capsys)
+    assert "'reach'" in line and "no Python implementation" in line
+
+
+def test_unknown_example_lists_known_ones(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["plan", "--example", "nosuch"]) == 2
+    line = _error_line(capsys)
+    assert "nosuch" in line and "blocksworld" in line
