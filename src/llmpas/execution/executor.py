@@ -1,0 +1,155 @@
+"""Run a stack of CSubBTs tick by tick; stop on the first unrecoverable anomaly.
+
+``execute(specs, ctx)`` builds one py_trees tree (a memory sequence of the CSubBTs), ticks it until
+it succeeds, fails with an anomaly report, or runs out of its tick budget, and returns an
+:class:`Episode`: the immutable record of what happened.
+"""
+
+from __future__ import annotations
+
+import enum
+import json
+import uuid
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import py_trees
+from py_trees.common import Status
+
+from llmpas.execution.anomaly import AnomalyReport
+from llmpas.execution.context import Context, Event
+from llmpas.execution.csubbt import Explore, SubtreeSpec, build_subtree
+from llmpas.language.logic import Atom
+
+
+class ExecStatus(enum.Enum):
+    SUCCESS = "success"
+    ANOMALY = "anomaly"
+    BUDGET = "budget-exhausted"
+
+
+@dataclass(frozen=True)
+class ExecutorConfig:
+    max_ticks: int = 2_000  # every tick runs at least one node: this bounds any execution
+
+    def __post_init__(self) -> None:
+        if self.max_ticks < 1:
+            raise ValueError(f"max_ticks must be >= 1, got {self.max_ticks}")
+
+
+@dataclass(frozen=True)
+class Episode:
+    """What happened when a plan was executed."""
+
+    status: ExecStatus
+    subtrees: tuple[str, ...]
+    completed: tuple[int, ...]  # plan step indices whose subtree succeeded
+    anomaly: AnomalyReport | None
+    events: tuple[Event, ...]
+    belief: frozenset[Atom]
+    ticks: int
+    retries: int  # backtracks over all subtrees
+    message: str = ""
+
+    def __post_init__(self) -> None:
+        if (self.anomaly is not None) != (self.status is ExecStatus.ANOMALY):
+            raise ValueError("an anomaly report is present exactly when the status is ANOMALY")
+
+    @property
+    def succeeded(self) -> bool:
+        return self.status is ExecStatus.SUCCESS
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "status": self.status.value,
+            "message": self.message,
+            "subtrees": list(self.subtrees),
+            "completed_steps": list(self.completed),
+            "anomaly": self.anomaly.to_json() if self.anomaly else None,
+            "ticks": self.ticks,
+            "retries": self.retries,
+            "belief": sorted(str(a) for a in self.belief),
+            "timeline": [
+                {
+                    "t": round(e.t, 4),
+                    "node": e.node,
+                    "status": e.status,
+                    "message": e.message,
+                    "values": dict(e.values),
+                }
+                for e in self.events
+            ],
+        }
+
+    def save(self, path: str | Path) -> Path:
+        """Write the episode as JSON (atomically: a partial file is never left behind)."""
+        path = Path(path)
+        tmp = path.with_name(path.name + ".tmp")
+        tmp.write_text(json.dumps(self.to_json(), indent=2))
+        tmp.replace(path)
+        return path
+
+
+def build_tree(
+    specs: Sequence[SubtreeSpec], ctx: Context
+) -> tuple[py_trees.composites.Sequence, list[Explore]]:
+    run = uuid.uuid4().hex[:8]
+    subtrees = [build_subtree(s, ctx, f"{run}/{i}") for i, s in enumerate(specs)]
+    root = py_trees.composites.Sequence("plan", memory=True, children=list(subtrees))
+    return root, subtrees
+
+
+def execute(
+    specs: Sequence[SubtreeSpec], ctx: Context, config: ExecutorConfig | None = None
+) -> Episode:
+    config = config or ExecutorConfig()
+    root, subtrees = build_tree(specs, ctx)
+    ticks = 0
+    try:
+        while ticks < config.max_ticks:
+            root.tick_once()
+            ticks += 1
+            if root.status in (Status.SUCCESS, Status.FAILURE):
+                break
+        return _episode(root, subtrees, ctx, ticks, config)
+    finally:
+        root.stop(Status.INVALID)
+        _release_blackboards(root)
+
+
+def _episode(
+    root: py_trees.behaviour.Behaviour,
+    subtrees: list[Explore],
+    ctx: Context,
+    ticks: int,
+    config: ExecutorConfig,
+) -> Episode:
+    completed = tuple(i for s in subtrees if s.status is Status.SUCCESS for i in s.spec.steps)
+    retries = sum(1 for e in ctx.recorder.events if e.status == "backtrack")
+    common = dict(
+        subtrees=tuple(s.spec.label for s in subtrees),
+        completed=completed,
+        events=tuple(ctx.recorder.events),
+        belief=ctx.belief.snapshot(),
+        ticks=ticks,
+        retries=retries,
+    )
+    if root.status is Status.SUCCESS:
+        return Episode(ExecStatus.SUCCESS, anomaly=None, **common)  # type: ignore[arg-type]
+    failed = next((s for s in subtrees if s.status is Status.FAILURE), None)
+    if failed is not None and failed.bb.report is not None:
+        return Episode(ExecStatus.ANOMALY, anomaly=failed.bb.report, **common)  # type: ignore[arg-type]
+    message = f"stopped after {ticks} ticks (max_ticks={config.max_ticks})"
+    return Episode(ExecStatus.BUDGET, anomaly=None, message=message, **common)  # type: ignore[arg-type]
+
+
+def _release_blackboards(root: py_trees.behaviour.Behaviour) -> None:
+    """Drop this run's blackboard keys: the py_trees blackboard is process-global."""
+    for node in root.iterate():
+        for client in node.blackboards:
+            client.unregister(clear=True)
+
+
+__all__ = ["Episode", "ExecStatus", "ExecutorConfig", "build_tree", "execute"]
