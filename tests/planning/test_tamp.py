@@ -187,14 +187,23 @@ def test_classical_failures_become_typed_results(
     assert len(planner.calls) == 1
 
 
-def test_classical_task_declares_stream_actions_and_placeholders() -> None:
+def test_classical_task_assumes_optimistic_facts_with_placeholders() -> None:
     planner = ScriptedPlanner([ClassicalPlan(ClassicalStatus.ERROR, (), None, 0.0, 0.0, "x")])
     solve(make_problem(WIDE), classical=planner)
     domain, problem = planner.calls[0]
-    assert "(:action stream__sample-pose" in domain
-    assert "(:action stream__reach" in domain
+    assert "stream__" not in domain  # no stream actions: optimistic facts are assumed
+    assert "(contained b0 #o" in problem and "(reach b0 v0 #o" in problem
     assert "rejected__cfree" in domain  # the negated collision test is rewritten
-    assert "(inst__sample-pose b0 r2 #o" in problem
+    assert "(cfree b0 v0 b1 v1)" in problem  # real bindings of the negative test: evaluated
+
+
+def test_evaluates_only_what_the_plan_relies_on() -> None:
+    # block 2 stays where it is: no pose is ever sampled for it
+    result = solve(make_problem(WIDE, n_blocks=3, n_goal=1))
+    assert result.plan is not None
+    sampled = {p for p in result.plan.objects if p.startswith("s")}
+    assert len(sampled) == result.stats.stream_calls["sample-pose"]
+    assert result.stats.stream_calls["sample-pose"] <= 2
 
 
 def test_plan_result_json_round_trip() -> None:

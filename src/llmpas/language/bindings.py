@@ -147,11 +147,12 @@ class BoundFunction:
         v = self.impl.fn(*inputs)
         if isinstance(v, bool | np.bool_) or not isinstance(v, numbers.Real):
             raise BindingError(f"function {self.schema.name!r} returned {v!r}, not a number")
-        if not (v >= 0 and math.isfinite(v)):
+        x = float(v)
+        if not (x >= 0 and math.isfinite(x)):
             raise BindingError(
                 f"function {self.schema.name!r} returned {v}, costs must be finite and >= 0"
             )
-        return float(v)
+        return x
 
 
 def _as_impl(obj: Any, name: str) -> Implementation:

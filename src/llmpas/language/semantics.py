@@ -90,11 +90,31 @@ class State:
 
 
 class Evaluator:
-    """Finds the bindings that make a formula true in a state (a small join engine)."""
+    """Finds the bindings that make a formula true in a state (a small join engine).
 
-    def __init__(self, universe: Universe, state: State) -> None:
+    With ``rules`` (non-recursive derived predicates), derived atoms are evaluated top-down on
+    demand and memoised, instead of computing every derived atom of the state first.
+    """
+
+    def __init__(
+        self,
+        universe: Universe,
+        state: State,
+        rules: Mapping[str, list[Derived]] | None = None,
+    ) -> None:
         self.u = universe
         self.s = state
+        self.rules = rules or {}
+        self._memo: dict[Atom, bool] = {}
+        self._fv: dict[int, tuple[Formula, frozenset[str]]] = {}
+
+    def _free(self, f: Formula) -> frozenset[str]:
+        """Free variables of ``f``, cached by identity (the formula is kept alive with it)."""
+        hit = self._fv.get(id(f))
+        if hit is None or hit[0] is not f:
+            hit = (f, frozenset(_free_vars(f)))
+            self._fv[id(f)] = hit
+        return hit[1]
 
     def holds(self, f: Formula, env: Env | None = None) -> bool:
         return next(self.solve(nnf(f), dict(env or {}), {}), None) is not None
@@ -108,7 +128,7 @@ class Evaluator:
                     if not self._atom_true(a, e):
                         yield e
             case And(parts):
-                yield from self._conj(_order(parts), env, types)
+                yield from self._conj(parts, env, types)
             case Or(parts):
                 for p in parts:
                     yield from self.solve(p, env, types)
@@ -120,10 +140,10 @@ class Evaluator:
                 for solved in self.solve(body, inner, qtypes):
                     # a quantified variable the body left unbound still ranges over its type:
                     # over an empty type there is no witness
-                    e = next(self._bind_all(tuple(bound), solved, qtypes), None)
-                    if e is None:
+                    witness = next(iter(self._bind_all(tuple(bound), solved, qtypes)), None)
+                    if witness is None:
                         continue
-                    out = {k: v for k, v in e.items() if k not in bound}
+                    out = {k: v for k, v in witness.items() if k not in bound}
                     out.update({k: v for k, v in env.items() if k in bound})
                     key = tuple(sorted(out.items()))
                     if key not in seen:
@@ -139,17 +159,61 @@ class Evaluator:
                 raise TypeError(f"formula not in negation normal form: {f}")
 
     def _conj(self, parts: tuple[Formula, ...], env: Env, types: dict[str, str]) -> Iterator[Env]:
+        """Join the conjuncts, always taking next the one that is cheapest given ``env``."""
         if not parts:
             yield env
             return
-        for e in self.solve(parts[0], env, types):
-            yield from self._conj(parts[1:], e, types)
+        k = min(range(len(parts)), key=lambda i: self._cost(parts[i], env))
+        rest = parts[:k] + parts[k + 1 :]
+        for e in self.solve(parts[k], env, types):
+            yield from self._conj(rest, e, types)
+
+    def _cost(self, f: Formula, env: Env) -> float:
+        unbound = sum(1 for v in self._free(f) if v not in env)
+        if isinstance(f, Atom) and f.predicate != "=" and f.predicate not in self.rules:
+            n = len(self.s.index.get(f.predicate, ()))
+            return n / (8.0 ** (len(f.args) - unbound)) if unbound else 0.0
+        if not unbound:
+            return 0.5  # a test of bound values
+        if isinstance(f, Atom):
+            return 1e6 if f.predicate in self.rules else 1e9  # derived, or '=' needing a binding
+        return 1e9 if isinstance(f, Not | Forall) else 1e7
 
     def _atom_true(self, a: Atom, env: Env) -> bool:
         args = tuple(env.get(t, t) for t in a.args)
         if a.predicate == "=":
             return args[0] == args[1]
-        return Atom(a.predicate, args) in self.s
+        ground = Atom(a.predicate, args)
+        if a.predicate in self.rules:
+            return self._derived_true(ground)
+        return ground in self.s
+
+    def _derived_true(self, ground: Atom) -> bool:
+        if ground not in self._memo:
+            self._memo[ground] = False  # guards recursion (the caller excludes recursive rules)
+            self._memo[ground] = next(self._derived(ground, {}, {}), None) is not None
+        return self._memo[ground]
+
+    def _derived(self, a: Atom, env: Env, types: dict[str, str]) -> Iterator[Env]:
+        """Bindings of ``a``'s variables that make the derived atom true, from its rules."""
+        seen: set[tuple[tuple[str, str], ...]] = set()
+        for rule in self.rules[a.predicate]:
+            heads = tuple(p.name for p in rule.head.params)
+            htypes = {p.name: p.type for p in rule.head.params}
+            inner = {
+                h: env.get(t, t)
+                for h, t in zip(heads, a.args, strict=True)
+                if not is_var(env.get(t, t))
+            }
+            for e in self.solve(rule.body, inner, htypes):  # rules come in NNF
+                for full in self._bind_all(heads, e, htypes):
+                    out = _match(a.args, tuple(full[h] for h in heads), env)
+                    if out is None:
+                        continue
+                    key = tuple(sorted(out.items()))
+                    if key not in seen:
+                        seen.add(key)
+                        yield out
 
     def _atom(self, a: Atom, env: Env, types: dict[str, str]) -> Iterator[Env]:
         if a.predicate == "=":
@@ -157,10 +221,15 @@ class Evaluator:
                 if self._atom_true(a, e):
                     yield e
             return
+        if a.predicate in self.rules:
+            for m in self._derived(a, env, types):
+                if self._typed_ok(m, a.args, types):
+                    yield m
+            return
         for fact in self.s.index.get(a.predicate, ()):
-            m = _match(a.args, fact.args, env)
-            if m is not None and self._typed_ok(m, a.args, types):
-                yield m
+            found = _match(a.args, fact.args, env)
+            if found is not None and self._typed_ok(found, a.args, types):
+                yield found
 
     def _typed_ok(self, env: Env, terms: tuple[str, ...], types: dict[str, str]) -> bool:
         for t in terms:
@@ -190,19 +259,6 @@ def _match(pattern: tuple[str, ...], values: tuple[str, ...], env: Env) -> Env |
         elif p != v:
             return None
     return out
-
-
-def _order(parts: tuple[Formula, ...]) -> tuple[Formula, ...]:
-    """Positive atoms first so they bind variables before negations and quantifiers."""
-
-    def rank(p: Formula) -> int:
-        if isinstance(p, Atom) and p.predicate != "=":
-            return 0
-        if isinstance(p, And | Or | Exists):
-            return 1
-        return 2
-
-    return tuple(sorted(parts, key=rank))
 
 
 def _free_vars(f: Formula) -> set[str]:
@@ -245,6 +301,24 @@ def _strata(derived: tuple[Derived, ...]) -> list[list[Derived]]:
     return out
 
 
+def _recursive(derived: tuple[Derived, ...]) -> bool:
+    """Whether some derived predicate depends on itself (then the closure is computed)."""
+    names = {d.head.name for d in derived}
+    deps: dict[str, set[str]] = defaultdict(set)
+    for d in derived:
+        deps[d.head.name] |= {a.predicate for a in atoms_of(d.body)} & names
+    for start in names:
+        stack, seen = list(deps[start]), set()
+        while stack:
+            n = stack.pop()
+            if n == start:
+                return True
+            if n not in seen:
+                seen.add(n)
+                stack.extend(deps[n])
+    return False
+
+
 def _polarity_atoms(f: Formula) -> Iterator[tuple[bool, Atom]]:
     match f:
         case Atom():
@@ -275,6 +349,21 @@ class Semantics:
             types.setdefault(c.name, c.type)
         self.universe = Universe(self.domain, types)
         self._strata = _strata(self.domain.derived)
+        self._rules: dict[str, list[Derived]] = {}
+        if not _recursive(self.domain.derived):
+            for d in self.domain.derived:
+                self._rules.setdefault(d.head.name, []).append(Derived(d.head, nnf(d.body)))
+
+    def state(self, facts: Iterable[Atom]) -> State:
+        """A state to evaluate formulas in: derived atoms on demand when the derived predicates
+        are not recursive, else the full closure."""
+        if self._rules or not self.domain.derived:
+            derived = self.domain.derived_names
+            return State(a for a in facts if a.predicate not in derived)
+        return self.closure(facts)
+
+    def evaluator(self, state: State) -> Evaluator:
+        return Evaluator(self.universe, state, self._rules)
 
     def closure(self, facts: Iterable[Atom]) -> State:
         """The state with every derived atom added (stratified fixpoint)."""
@@ -297,12 +386,12 @@ class Semantics:
         return State(base)
 
     def holds(self, f: Formula, facts: Iterable[Atom] | State) -> bool:
-        state = facts if isinstance(facts, State) else self.closure(facts)
-        return Evaluator(self.universe, state).holds(f)
+        state = facts if isinstance(facts, State) else self.state(facts)
+        return self.evaluator(state).holds(f)
 
     def applicable(self, action: Action, args: tuple[str, ...], state: State) -> bool:
         env = self._env(action, args)
-        return Evaluator(self.universe, state).holds(action.precondition, env)
+        return self.evaluator(state).holds(action.precondition, env)
 
     def _env(self, action: Action, args: tuple[str, ...]) -> Env:
         if len(args) != len(action.params):
@@ -334,7 +423,7 @@ class Semantics:
     ) -> float:
         sub = Substitution(env)
         cost = 0.0
-        ev = Evaluator(self.universe, state)
+        ev = self.evaluator(state)
         for e in effects:
             match e:
                 case Atom():
@@ -362,6 +451,103 @@ class Semantics:
         return self.costs[term]
 
 
+class Support:
+    """Which base facts make a formula true in a state: a witness, through derived predicates.
+
+    For a plan, the union over its steps is the plan's *preimage*: the facts it relies on (what a
+    stream-based planner must actually produce). Negative literals contribute no facts.
+    """
+
+    def __init__(self, sem: Semantics, state: State) -> None:
+        self.sem = sem
+        self.ev = sem.evaluator(state)
+        self.rules: dict[str, list[Derived]] = defaultdict(list)
+        for d in sem.domain.derived:
+            self.rules[d.head.name].append(d)
+        self._memo: dict[Atom, frozenset[Atom]] = {}
+
+    def of(self, f: Formula, env: Env | None = None) -> frozenset[Atom] | None:
+        """The supporting base facts, or None when ``f`` is false."""
+        g = nnf(f)
+        e = next(self.ev.solve(g, dict(env or {}), {}), None)
+        return None if e is None else self._facts(g, e)
+
+    def _facts(self, f: Formula, env: Env) -> frozenset[Atom]:
+        match f:
+            case Atom():
+                if f.predicate == "=":
+                    return frozenset()
+                return self._atom(Substitution(env).atom(f))
+            case Not():
+                return frozenset()
+            case And(parts):
+                out: frozenset[Atom] = frozenset()
+                for p in parts:
+                    out |= self._facts(p, env)
+                return out
+            case Or(parts):
+                for p in parts:
+                    got = self.of(p, env)
+                    if got is not None:
+                        return got
+            case Exists():
+                got = self.of(f.body, {k: v for k, v in env.items() if k not in _names(f.params)})
+                return got or frozenset()
+            case Forall(ps, body):
+                vs = tuple(p.name for p in ps)
+                types = {p.name: p.type for p in ps}
+                acc: frozenset[Atom] = frozenset()
+                for full in self.ev._bind_all(
+                    vs, {k: v for k, v in env.items() if k not in vs}, types
+                ):
+                    acc |= self.of(body, full) or frozenset()
+                return acc
+        return frozenset()
+
+    def _atom(self, a: Atom) -> frozenset[Atom]:
+        if a.predicate not in self.rules:
+            return frozenset((a,))
+        if a in self._memo:
+            return self._memo[a]
+        self._memo[a] = frozenset()  # guards recursive rules
+        for rule in self.rules[a.predicate]:
+            env = dict(zip((p.name for p in rule.head.params), a.args, strict=True))
+            got = self.of(rule.body, env)
+            if got is not None:
+                self._memo[a] = got
+                break
+        return self._memo[a]
+
+
+def _names(params: Iterable[Param]) -> set[str]:
+    return {p.name for p in params}
+
+
+def preimage(
+    sem: Semantics,
+    init: Iterable[Atom],
+    steps: Iterable[tuple[str, tuple[str, ...]]],
+    goal: Formula | None = None,
+) -> list[frozenset[Atom]] | None:
+    """For each step (and the goal, last), the facts it relies on; None if the plan is invalid."""
+    facts = set(init)
+    out: list[frozenset[Atom]] = []
+    for name, args in steps:
+        action = sem.domain.action(name)
+        state = sem.state(facts)
+        got = Support(sem, state).of(action.precondition, sem._env(action, args))
+        if got is None:
+            return None
+        out.append(got)
+        facts, _ = sem.apply(action, args, state)
+    if goal is not None:
+        got = Support(sem, sem.state(facts)).of(goal)
+        if got is None:
+            return None
+        out.append(got)
+    return out
+
+
 @dataclass(frozen=True)
 class Replay:
     """The outcome of replaying a plan step by step against the domain semantics."""
@@ -384,7 +570,7 @@ def replay(
     states = [frozenset(facts)]
     total = 0.0
     for i, (name, args) in enumerate(steps):
-        state = sem.closure(facts)
+        state = sem.state(facts)
         try:
             action = sem.domain.action(name)
             ok = sem.applicable(action, args, state)
@@ -406,4 +592,4 @@ def ground_atoms(f: Formula) -> Iterator[Atom]:
     return (a for a in atoms_of(f) if not any(is_var(t) for t in a.args))
 
 
-__all__ = ["Evaluator", "Param", "Replay", "Semantics", "State", "nnf", "replay"]
+__all__ = ["Evaluator", "Replay", "Semantics", "State", "Support", "nnf", "preimage", "replay"]

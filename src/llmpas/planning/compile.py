@@ -1,9 +1,10 @@
 """Compile a TAMP problem state into a classical PDDL task for Fast Downward.
 
-Real facts go to ``:init``. Each stream becomes a *stream action* ``stream__NAME`` whose
-precondition is its ``:domain`` plus an ``inst__NAME`` fact naming one allowed instance (inputs and
-placeholder outputs), and whose effect is its ``:certified`` facts, at the stream's overhead cost.
-The plan then says exactly which unevaluated stream instances it relies on.
+Real facts and the certified facts of every optimistic stream instance (placeholder outputs
+``#oN``) go to ``:init``; the classical planner then plans as if every stream succeeded. Which
+optimistic facts a plan relies on is found afterwards from its preimage
+(:func:`llmpas.language.semantics.preimage`), not by searching over stream actions (whose
+commutative orderings make the search space explode).
 
 Negated atoms of test streams are rewritten to ``rejected__P`` facts: true only for bindings a test
 has rejected (before a test is evaluated it is optimistically assumed to pass).
@@ -12,11 +13,12 @@ Fast Downward wants integer costs: every cost is multiplied by ``COST_SCALE`` an
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, replace
+from typing import Any
 
 from llmpas.language.bindings import BoundFunction
-from llmpas.language.domain import Action, Domain, Signature
+from llmpas.language.domain import Domain, Signature
 from llmpas.language.logic import (
     And,
     Atom,
@@ -37,15 +39,13 @@ from llmpas.language.problem import Problem
 from llmpas.language.semantics import State, nnf
 from llmpas.planning.instances import (
     OptInstance,
-    effort_function,
-    inst_predicate,
+    StreamFailure,
     is_optimistic,
     join,
     rejected_predicate,
 )
 
 COST_SCALE = 100
-STREAM_ACTION_PREFIX = "stream__"
 
 
 def _scaled(x: float) -> int:
@@ -96,7 +96,7 @@ class CompiledDomain:
 
 
 def compile_domain(problem: Problem, negative_tests: set[str]) -> CompiledDomain:
-    """The domain plus stream actions; the same for every iteration of a planning run."""
+    """The domain as Fast Downward gets it; the same for every iteration of a planning run."""
     d = problem.domain
     unit = not d.uses_costs()
     actions = tuple(
@@ -108,32 +108,12 @@ def compile_domain(problem: Problem, negative_tests: set[str]) -> CompiledDomain
         for a in d.actions
     )
     derived = tuple(replace(x, body=_rewrite(x.body, negative_tests)) for x in d.derived)
-    preds: list[Signature] = []
     certified = problem.streams.certified_predicates
-    for name, arity in certified.items():
-        preds.append(Signature(name, tuple(Param(f"?x{i}") for i in range(arity))))
-    for p in sorted(negative_tests):
-        preds.append(Signature(rejected_predicate(p), _vars(certified[p])))
-    stream_actions = []
-    for b in problem.bound_streams.values():
-        s = b.schema
-        params = s.inputs + s.outputs
-        preds.append(Signature(inst_predicate(s.name), tuple(Param(v) for v in params)))
-        pre = And((Atom(inst_predicate(s.name), params), *s.domain))
-        effs: tuple[EffectItem, ...] = (
-            *s.certified,
-            Increase(FuncTerm(effort_function(s.name), params)),
-        )
-        stream_actions.append(
-            Action(STREAM_ACTION_PREFIX + s.name, tuple(Param(v) for v in params), pre, effs)
-        )
-    functions = dict(d.functions)
-    for b in problem.bound_streams.values():
-        name = effort_function(b.schema.name)
-        functions[name] = Signature(name, _vars(len(b.schema.inputs) + len(b.schema.outputs)))
-    out = replace(
-        d, actions=actions, derived=derived, undeclared={}, functions=functions
-    ).with_additions(predicates=preds, actions=stream_actions)
+    preds = [Signature(name, _vars(arity)) for name, arity in certified.items()]
+    preds += [Signature(rejected_predicate(p), _vars(certified[p])) for p in sorted(negative_tests)]
+    out = replace(d, actions=actions, derived=derived, undeclared={}).with_additions(
+        predicates=preds
+    )
     return CompiledDomain(out, out.to_pddl())
 
 
@@ -143,28 +123,34 @@ def _vars(n: int) -> tuple[Param, ...]:
 
 @dataclass(frozen=True)
 class Task:
-    """One classical task: the problem text and how to read the plan back."""
+    """One classical task: the problem text."""
 
     problem_text: str
-    optimistic: Mapping[tuple[str, tuple[str, ...]], OptInstance]  # (stream, inputs+outputs)
 
 
 def function_values(
     problem: Problem,
     facts: Iterable[Atom],
     cache: dict[FuncTerm, float],
+    value: Callable[[str], Any],
     optimistic_cost: float = 1.0,
 ) -> dict[FuncTerm, float]:
-    """Values of every ``:function`` on the bindings its domain allows, plus the problem's costs."""
+    """Values of every ``:function`` on the bindings its domain allows, plus the problem's costs.
+
+    ``value(name)`` gives an object's Python value (stream outputs included)."""
     out = dict(problem.costs)
     state = State(facts)
     for f in problem.bound_functions.values():
-        out.update(_function_values(f, state, problem, cache, optimistic_cost))
+        out.update(_function_values(f, state, value, cache, optimistic_cost))
     return out
 
 
 def _function_values(
-    f: BoundFunction, state: State, problem: Problem, cache: dict[FuncTerm, float], default: float
+    f: BoundFunction,
+    state: State,
+    value: Callable[[str], Any],
+    cache: dict[FuncTerm, float],
+    default: float,
 ) -> dict[FuncTerm, float]:
     out: dict[FuncTerm, float] = {}
     head = f.schema.head
@@ -174,7 +160,10 @@ def _function_values(
             out[term] = default
             continue
         if term not in cache:
-            cache[term] = f.value(tuple(problem.value(a) for a in term.args))
+            try:
+                cache[term] = f.value(tuple(value(a) for a in term.args))
+            except Exception as e:  # a user's cost function failed: say which term
+                raise StreamFailure(f"function {term} raised {type(e).__name__}: {e}") from e
         out[term] = cache[term]
     return out
 
@@ -187,8 +176,7 @@ def compile_task(
     object_types: Mapping[str, str],
     negative_tests: set[str],
 ) -> Task:
-    opt = list(optimistic)
-    init = set(facts) | {i.inst_atom for i in opt}
+    init = set(facts) | {a for i in optimistic for a in i.certified}
     objects = dict(object_types)
     for a in init:
         for t in a.args:
@@ -202,19 +190,17 @@ def compile_task(
     init_text = [str(a) for a in sorted(init)]
     init_text.append("(= (total-cost) 0)")  # compile_domain gives every action a cost
     init_text += [f"(= {t} {_scaled(v)})" for t, v in sorted(costs.items(), key=str)]
-    init_text += [f"(= {i.effort_term} {_scaled(i.effort)})" for i in opt]
     goal = _rewrite(problem.goal, negative_tests)
     text = (
         f"(define (problem {problem.name})\n  (:domain {problem.domain.name})\n"
         f"  (:objects {obj_text})\n  (:init\n    " + "\n    ".join(init_text) + ")\n"
         f"  (:goal {goal})\n  (:metric minimize (total-cost)))\n"
     )
-    return Task(text, {(i.stream.schema.name, i.inputs + i.outputs): i for i in opt})
+    return Task(text)
 
 
 __all__ = [
     "COST_SCALE",
-    "STREAM_ACTION_PREFIX",
     "CompiledDomain",
     "Task",
     "compile_domain",

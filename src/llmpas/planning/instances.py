@@ -24,7 +24,6 @@ from llmpas.language.logic import (
     Exists,
     Forall,
     Formula,
-    FuncTerm,
     Not,
     Or,
     Substitution,
@@ -55,6 +54,7 @@ class Record:
     calls: int = 0
     outputs: list[tuple[str, ...]] = field(default_factory=list)
     exhausted: bool = False
+    enabled: bool = True  # focused: disabled after a call until a search fails
 
 
 @dataclass(frozen=True)
@@ -66,27 +66,10 @@ class OptInstance:
     outputs: tuple[str, ...]
     certified: tuple[Atom, ...]
     level: int
-    effort: float  # expected cost of evaluating it: overhead, growing with earlier calls
 
     @property
     def key(self) -> tuple[str, tuple[str, ...]]:
         return self.stream.schema.name, self.inputs
-
-    @property
-    def inst_atom(self) -> Atom:
-        return Atom(inst_predicate(self.stream.schema.name), self.inputs + self.outputs)
-
-    @property
-    def effort_term(self) -> FuncTerm:
-        return FuncTerm(effort_function(self.stream.schema.name), self.inputs + self.outputs)
-
-
-def inst_predicate(stream: str) -> str:
-    return f"inst__{stream}"
-
-
-def effort_function(stream: str) -> str:
-    return f"effort__{stream}"
 
 
 def rejected_predicate(pred: str) -> str:
@@ -223,7 +206,8 @@ def optimistic_instances(
     max_level: int,
     limit: int = 50_000,
 ) -> list[OptInstance]:
-    """The optimistic closure of the real facts under the allowed, non-exhausted instances."""
+    """The optimistic closure of the real facts under the allowed, enabled, non-exhausted
+    instances."""
     facts = set(store.facts)
     level: dict[str, int] = {}
     seen: set[tuple[str, tuple[str, ...]]] = set()
@@ -263,7 +247,7 @@ def _new_instances(
         if key in seen:
             continue
         rec = store.records.get(key)
-        if rec is not None and rec.exhausted:
+        if rec is not None and (rec.exhausted or not rec.enabled):
             continue
         lvl = 1 + max((level.get(i, 0) for i in inputs), default=0)
         if lvl > max_level:
@@ -272,10 +256,8 @@ def _new_instances(
         outputs = tuple(f"{OPTIMISTIC_PREFIX}{next(counter)}" for _ in schema.outputs)
         level.update(dict.fromkeys(outputs, lvl))
         sub = Substitution(dict(zip(schema.inputs + schema.outputs, inputs + outputs, strict=True)))
-        calls = rec.calls if rec is not None else 0
-        effort = bound.info.overhead * (1 + calls) / bound.info.p_success
         certified = tuple(sub.atom(a) for a in schema.certified)
-        yield OptInstance(bound, inputs, outputs, certified, lvl, effort)
+        yield OptInstance(bound, inputs, outputs, certified, lvl)
 
 
 _JOIN_DOMAIN = Domain("join")  # immutable; joins of positive atoms need no types

@@ -1,11 +1,11 @@
 """Stream-based TAMP planning on a classical planner: ``focused`` and ``incremental``.
 
-``focused`` (optimistic, in PDDLStream's terms *focused/adaptive*): stream outputs are placeholder
-objects; the classical planner chooses which stream instances the plan relies on (stream actions,
-see :mod:`llmpas.planning.compile`); only those are evaluated, in plan order; repeat until a plan
-needs no unevaluated stream. An instance stays available until it is exhausted, but each call makes
-its stream action dearer, so the search prefers real outputs and untried instances; no
-intermediate search has to prove a task unsolvable.
+``focused`` (optimistic, in PDDLStream's terms *focused/adaptive*): every stream instance that
+could apply gets placeholder outputs and its certified facts are assumed; the classical planner
+plans as if all streams succeeded; the plan's preimage (the facts it relies on, through derived
+predicates) says which stream instances it needs; only those are evaluated, producers first; an
+evaluated instance is disabled until a search fails (then all are re-enabled); repeat until a plan
+needs no unevaluated stream.
 
 ``incremental``: evaluate every stream instance once per level on the real facts, then search.
 
@@ -17,16 +17,14 @@ from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 from llmpas.language.bindings import BoundStream
 from llmpas.language.logic import Atom, FuncTerm
 from llmpas.language.problem import Problem
-from llmpas.language.semantics import State
+from llmpas.language.semantics import Semantics, State, preimage
 from llmpas.planning.compile import (
     COST_SCALE,
-    STREAM_ACTION_PREFIX,
     CompiledDomain,
     compile_domain,
     compile_task,
@@ -73,14 +71,16 @@ class _Run:
     store: StreamStore
     compiled: CompiledDomain
     negative_tests: set[str]
+    assumed: frozenset[str]  # deferred streams: assumed, never evaluated here
     started: float
     iterations: int = 0
     translate_time: float = 0.0
     search_time: float = 0.0
     cost_cache: dict[FuncTerm, float] = field(default_factory=dict)
+    costs: dict[FuncTerm, float] = field(default_factory=dict)  # function values, last search
 
     def deferred(self, b: BoundStream) -> bool:
-        return self.config.defer and b.info.deferred
+        return b.schema.name in self.assumed
 
     def remaining(self) -> float:
         return self.config.max_time - (time.perf_counter() - self.started)
@@ -113,6 +113,9 @@ def solve(
             DownwardConfig(max_time=config.search_time, memory_mb=config.memory_mb)
         )
     negative = negative_test_predicates(problem)
+    assumed = frozenset(
+        b.schema.name for b in problem.bound_streams.values() if config.defer and b.info.deferred
+    )
     run = _Run(
         problem,
         config,
@@ -120,6 +123,7 @@ def solve(
         StreamStore(problem, started + config.max_time),
         compile_domain(problem, negative),
         negative,
+        assumed,
         started,
     )
     try:
@@ -146,12 +150,15 @@ def _focused(run: _Run) -> PlanResult:
         found = _search(run, opt)
         if isinstance(found, PlanResult):
             return found
-        if found is None:  # even the optimistic task has no plan
+        if found is None:  # no plan even with every enabled instance assumed
+            if _reenable(store):
+                continue
             return run.result(PlanStatus.UNSOLVABLE, _unsolvable_message(run))
         actions, cost = found
-        needed = _stream_plan(actions, opt, run, evaluate=True)
+        per_step = _retrace(run, actions, opt)
+        needed = [i for insts in per_step for i in insts if not run.deferred(i.stream)]
         if not needed:
-            return run.result(PlanStatus.SOLVED, "", _final_plan(run, actions, opt, cost))
+            return run.result(PlanStatus.SOLVED, "", _final_plan(run, actions, per_step, cost))
         _evaluate(run, needed)
     return run.result(
         PlanStatus.UNSOLVABLE, f"no plan after {run.config.max_iterations} iterations"
@@ -169,6 +176,14 @@ def _negative_streams(run: _Run) -> list[BoundStream]:
     ]
 
 
+def _reenable(store: StreamStore) -> bool:
+    """Re-enable every called, non-exhausted instance; True when any was disabled."""
+    disabled = [r for r in store.records.values() if not r.enabled and not r.exhausted]
+    for r in disabled:
+        r.enabled = True
+    return bool(disabled)
+
+
 def _evaluate(run: _Run, needed: list[OptInstance]) -> None:
     """Evaluate a stream plan in order; placeholders map to the real outputs as they come."""
     store = run.store
@@ -179,6 +194,7 @@ def _evaluate(run: _Run, needed: list[OptInstance]) -> None:
             continue  # its producer failed this time
         rec = store.record(inst.stream, inputs)
         out = store.call(rec)
+        rec.enabled = False
         if out is not None:
             real.update(zip(inst.outputs, out, strict=True))
         if store.out_of_time():
@@ -200,7 +216,8 @@ def _incremental(run: _Run) -> PlanResult:
             return found
         if found is not None:
             actions, cost = found
-            return run.result(PlanStatus.SOLVED, "", _final_plan(run, actions, opt, cost))
+            per_step = _retrace(run, actions, opt)
+            return run.result(PlanStatus.SOLVED, "", _final_plan(run, actions, per_step, cost))
         level += 1
         if not _one_level(run):
             return run.result(PlanStatus.UNSOLVABLE, _unsolvable_message(run))
@@ -234,10 +251,12 @@ def _one_level(run: _Run) -> bool:
 # ----------------------------------------------------------------------------------- search
 
 
-def _object_types(run: _Run) -> dict[str, str]:
+def _object_types(run: _Run, opt: list[OptInstance]) -> dict[str, str]:
     types = dict(run.problem.object_types)
     for name in run.store.values:
         types.setdefault(name, "object")
+    for i in opt:
+        types.update(dict.fromkeys(i.outputs, "object"))
     return types
 
 
@@ -247,10 +266,15 @@ def _search(
     """Search once: (actions, cost), None when the task is unsolvable, or a final result."""
     store = run.store
     facts = store.facts | store.rejected
-    costs = function_values(
-        run.problem, facts | {a for i in opt for a in i.certified}, run.cost_cache
+    run.costs = function_values(
+        run.problem,
+        facts | {a for i in opt for a in i.certified},
+        run.cost_cache,
+        lambda n: store.values.get(n, n),
     )
-    task = compile_task(run.problem, facts, opt, costs, _object_types(run), run.negative_tests)
+    task = compile_task(
+        run.problem, facts, opt, run.costs, _object_types(run, opt), run.negative_tests
+    )
     budget = min(run.config.search_time, run.remaining())
     if budget <= 0:
         return run.result(PlanStatus.TIMEOUT, f"no plan within {run.config.max_time} s")
@@ -269,88 +293,77 @@ def _search(
     return run.result(PlanStatus.ERROR, f"classical planner {res.status.value}: {res.message}")
 
 
-def _stream_plan(
-    actions: Iterable[tuple[str, tuple[str, ...]]],
-    opt: list[OptInstance],
-    run: _Run,
-    evaluate: bool,
-) -> list[OptInstance]:
-    """The stream instances of the plan, in plan order (non-deferred ones if ``evaluate``)."""
-    by_key = {(i.stream.schema.name, i.inputs + i.outputs): i for i in opt}
-    out = []
-    for name, args in actions:
-        if not name.startswith(STREAM_ACTION_PREFIX):
-            continue
-        inst = by_key[(name.removeprefix(STREAM_ACTION_PREFIX), args)]
-        if run.deferred(inst.stream) != evaluate:
-            out.append(inst)
+# ---------------------------------------------------------------------------------- retrace
+
+
+def _retrace(
+    run: _Run, actions: tuple[tuple[str, tuple[str, ...]], ...], opt: list[OptInstance]
+) -> list[list[OptInstance]]:
+    """Per plan step (plus one last entry for the goal), the optimistic instances it relies on,
+    producers first, each instance listed once (at its first use)."""
+    store = run.store
+    producer = {o: i for i in opt for o in i.outputs}
+    by_fact: dict[Atom, OptInstance] = {}
+    for i in sorted(opt, key=lambda i: i.level):
+        for a in i.certified:
+            if a not in store.facts:
+                by_fact.setdefault(a, i)
+    sem = Semantics(run.compiled.domain, _object_types(run, opt), run.costs)
+    init = store.facts | store.rejected | set(by_fact)
+    support = preimage(sem, init, actions, run.problem.goal)
+    if support is None:
+        raise RuntimeError("the classical plan does not replay under the domain semantics")
+    done: set[int] = set()
+    out: list[list[OptInstance]] = []
+    for k, facts in enumerate(support):
+        mine: list[OptInstance] = []
+        wanted = [by_fact[a] for a in sorted(facts) if a in by_fact]
+        if k < len(actions):
+            wanted += [producer[x] for x in actions[k][1] if x in producer]
+        for inst in wanted:
+            _with_producers(inst, producer, done, mine)
+        out.append(mine)
     return out
+
+
+def _with_producers(
+    inst: OptInstance, producer: dict[str, OptInstance], done: set[int], out: list[OptInstance]
+) -> None:
+    if id(inst) in done:
+        return
+    done.add(id(inst))
+    for x in inst.inputs:
+        if x in producer:
+            _with_producers(producer[x], producer, done, out)
+    out.append(inst)
 
 
 def _final_plan(
     run: _Run,
     actions: tuple[tuple[str, tuple[str, ...]], ...],
-    opt: list[OptInstance],
+    per_step: list[list[OptInstance]],
     classical_cost: float,
 ) -> Plan:
-    deferred = _stream_plan(actions, opt, run, evaluate=False)
-    steps = _attach_deferred(actions, deferred)
-    n_streams = sum(round(i.effort * COST_SCALE) for i in deferred) / COST_SCALE
-    cost = max(0.0, classical_cost / COST_SCALE - n_streams)
-    instances = tuple(StreamInstance(i.stream.schema.name, i.inputs, i.outputs) for i in deferred)
-    placeholders = {o: None for i in deferred for o in i.outputs}
+    """The plan: deferred instances go to the step that first needs them (the goal's to the last
+    step)."""
+    steps_insts = [list(x) for x in per_step[: len(actions)]]
+    if steps_insts and len(per_step) > len(actions):
+        steps_insts[-1] += per_step[-1]
+    deferred = [i for insts in steps_insts for i in insts]
+    ref = {id(i): StreamInstance(i.stream.schema.name, i.inputs, i.outputs) for i in deferred}
     certified = {a for a in run.store.facts if a not in run.problem.init}
     certified |= {a for i in deferred for a in i.certified}
     return Plan(
-        steps=steps,
-        cost=cost,
-        objects={**run.store.values, **placeholders},
+        steps=tuple(
+            PlanStep(name, args, tuple(ref[id(i)] for i in insts))
+            for (name, args), insts in zip(actions, steps_insts, strict=True)
+        ),
+        cost=classical_cost / COST_SCALE,
+        objects={**run.store.values, **{o: None for i in deferred for o in i.outputs}},
         certified=frozenset(certified),
-        deferred=instances,
-        deferred_facts={s: i.certified for s, i in zip(instances, deferred, strict=True)},
+        deferred=tuple(ref[id(i)] for i in deferred),
+        deferred_facts={ref[id(i)]: i.certified for i in deferred},
     )
-
-
-def _attach_deferred(
-    actions: tuple[tuple[str, tuple[str, ...]], ...], deferred: list[OptInstance]
-) -> tuple[PlanStep, ...]:
-    """Each deferred instance goes to the first later action that uses its outputs or facts,
-    or else to the action right after it."""
-    keyed = {
-        (STREAM_ACTION_PREFIX + i.stream.schema.name, i.inputs + i.outputs): i for i in deferred
-    }
-    domain_steps = [
-        (k, a) for k, a in enumerate(actions) if not a[0].startswith(STREAM_ACTION_PREFIX)
-    ]
-    owner: dict[int, list[OptInstance]] = {}
-    for k, action in enumerate(actions):
-        inst = keyed.get(action)
-        if inst is None:
-            continue
-        later = [(j, a) for j, a in domain_steps if j > k]
-        if not later:
-            continue
-        users = [
-            j
-            for j, (_, args) in later
-            if set(inst.outputs) & set(args) or _mentions(inst.certified, args)
-        ]
-        owner.setdefault(users[0] if users else later[0][0], []).append(inst)
-    return tuple(
-        PlanStep(
-            name,
-            args,
-            tuple(
-                StreamInstance(i.stream.schema.name, i.inputs, i.outputs) for i in owner.get(j, [])
-            ),
-        )
-        for j, (name, args) in domain_steps
-    )
-
-
-def _mentions(facts: tuple[Atom, ...], args: tuple[str, ...]) -> bool:
-    a = set(args)
-    return any(f.args and set(f.args) <= a for f in facts)
 
 
 def _unsolvable_message(run: _Run) -> str:
