@@ -113,7 +113,10 @@ class Problem:
                 )
         values = {n: namer.values.get(n, n) for n in names}
         bs, bf = bind(streams, implementations or {}, info)
-        return cls(domain, streams, values, frozenset(atoms), goal_f, bs, bf, cost_map, name=name)
+        types = dict.fromkeys(values, "object")  # objects from Python are untyped
+        return cls(
+            domain, streams, values, frozenset(atoms), goal_f, bs, bf, cost_map, types, name=name
+        )
 
     def with_state(
         self,

@@ -1,0 +1,44 @@
+"""A 2-D continuous pick-and-place domain: blocks of different widths on a long table."""
+
+from llmpas.examples.tamp2d.problem import PACKAGE, goal_facts, init_facts, make_problem
+from llmpas.examples.tamp2d.streams import (
+    STREAM_NAMES,
+    distance,
+    implementations,
+    inverse_kinematics,
+    plan_motion,
+    sample_pose,
+    test_cfree,
+)
+from llmpas.examples.tamp2d.world import (
+    BlockSpec,
+    Conf,
+    Interval,
+    Pose,
+    Traj,
+    World,
+    make_world,
+    overlap,
+)
+
+__all__ = [
+    "PACKAGE",
+    "STREAM_NAMES",
+    "BlockSpec",
+    "Conf",
+    "Interval",
+    "Pose",
+    "Traj",
+    "World",
+    "distance",
+    "goal_facts",
+    "implementations",
+    "init_facts",
+    "inverse_kinematics",
+    "make_problem",
+    "make_world",
+    "overlap",
+    "plan_motion",
+    "sample_pose",
+    "test_cfree",
+]
