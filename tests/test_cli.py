@@ -74,3 +74,34 @@ def test_unknown_example_lists_known_ones(capsys: pytest.CaptureFixture[str]) ->
     assert main(["plan", "--example", "nosuch"]) == 2
     line = _error_line(capsys)
     assert "nosuch" in line and "blocksworld" in line
+
+
+def test_execute_prints_the_anomaly_and_writes_the_episode(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["execute", "object-loss-table", "--out", str(tmp_path)]) == 1
+    out = capsys.readouterr().out
+    assert "anomaly" in out and "(on cube table1_right)" in out
+    assert {p.name for p in tmp_path.iterdir()} >= {
+        "episode.json",
+        "report.md",
+        "report.html",
+        "plan.xml",
+    }
+
+
+def test_execute_nominal_succeeds(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["execute", "nominal"]) == 0
+    assert "success" in capsys.readouterr().out
+
+
+def test_unknown_scenario_is_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["execute", "nosuch"]) == 2
+    line = _error_line(capsys)
+    assert "nosuch" in line and "object-loss-table" in line
+
+
+def test_bt_export_writes_xml(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["bt", "export", "nominal", "--out", str(tmp_path)]) == 0
+    xml = (tmp_path / "plan.xml").read_text()
+    assert 'BTCPP_format="4"' in xml

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import importlib.util
+import json
 import logging
 import sys
 from collections.abc import Callable, Mapping, Sequence
@@ -191,6 +192,18 @@ def _cmd_bench_planning_time(args: argparse.Namespace, console: Console) -> int:
     return 0
 
 
+def _cmd_bench_perturbation(args: argparse.Namespace, console: Console) -> int:
+    from llmpas.experiments.perturbation import PerturbationConfig, run_perturbation
+
+    try:
+        config = PerturbationConfig(episodes=args.episodes, seed=args.seed, out_dir=Path(args.out))
+    except ValueError as e:
+        raise CliError(str(e)) from None
+    _, files = run_perturbation(config, console)
+    console.print(f"wrote {', '.join(str(p) for p in files)}")
+    return 0
+
+
 def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("bench", help="benchmarks and experiments")
     bsub = p.add_subparsers(dest="bench", required=True)
@@ -201,6 +214,119 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     pt.add_argument("--max-time", type=float, default=60.0, help="seconds per planning run")
     pt.add_argument("--out", default="results/planning-time")
     pt.set_defaults(handler=_cmd_bench_planning_time)
+    pe = bsub.add_parser(
+        "perturbation",
+        help="household episodes with tolerable disturbances: CSubBT vs flat execution, no LLM",
+    )
+    pe.add_argument("--episodes", type=int, default=200)
+    pe.add_argument("--seed", type=int, default=0)
+    pe.add_argument("--out", default="results/perturbation")
+    pe.set_defaults(handler=_cmd_bench_perturbation)
+
+
+# ---------------------------------------------------------------------------- execute / bt
+
+
+def _run_household(args: argparse.Namespace, console: Console) -> Any:
+    from llmpas.worlds.household.run import RunConfig, run_scenario
+    from llmpas.worlds.household.scenario import ScenarioError
+
+    config = RunConfig(planner=_planner_config(args), seed=args.seed)
+    try:
+        with console.status(f"planning and executing {args.scenario} ..."):
+            return run_scenario(args.scenario, config)
+    except (ScenarioError, FileNotFoundError) as e:
+        raise CliError(str(e)) from None
+
+
+def _cmd_execute(args: argparse.Namespace, console: Console) -> int:
+    from llmpas.execution.report import save_episode
+
+    run = _run_household(args, console)
+    if run.episode is None:
+        console.print(f"[bold red]planning failed[/]: {run.plan.status.value}: {run.plan.message}")
+        return 1
+    ep = run.episode
+    if args.out:
+        files = save_episode(ep, Path(args.out), specs=list(run.specs))
+        console.print(f"wrote {len(files)} files to {args.out}")
+    if args.json:
+        sys.stdout.write(json.dumps(ep.to_json(), indent=2) + "\n")
+        return 0 if ep.succeeded else 1
+    console.print(
+        f"plan: {len(run.plan.plan.steps)} actions in {len(run.specs)} subtrees, "
+        f"planned in {run.plan.stats.total_time:.2f} s"
+    )
+    for label in ep.subtrees:
+        console.print(f"  - {label}")
+    if ep.succeeded:
+        console.print(f"[bold green]success[/] ({ep.retries} retries, {ep.ticks} ticks)")
+        return 0
+    if ep.anomaly is not None:
+        console.print("[bold yellow]anomaly[/]: " + ep.anomaly.describe(), highlight=False)
+        return 1
+    console.print(f"[bold red]{ep.status.value}[/]: {ep.message}")
+    return 1
+
+
+def _cmd_bt(args: argparse.Namespace, console: Console) -> int:
+    from llmpas.execution.export import render_png, to_ascii, to_btcpp_files
+    from llmpas.worlds.household.decomposition import build_specs
+    from llmpas.worlds.household.problem import make_problem
+    from llmpas.worlds.household.run import belief_from, household_for, scenario_path
+    from llmpas.worlds.household.scenario import ScenarioError, load_scenario
+
+    try:
+        scenario = load_scenario(scenario_path(args.scenario))
+    except (ScenarioError, FileNotFoundError) as e:
+        raise CliError(str(e)) from None
+    house = household_for(scenario)
+    import numpy as np
+
+    problem = make_problem(
+        house, belief_from(house, scenario), scenario.goal, np.random.default_rng(args.seed)
+    )
+    result = solve(problem, _planner_config(args))
+    if result.plan is None:
+        raise CliError(f"no plan: {result.status.value}: {result.message}")
+    specs = build_specs(house, problem, result.plan)
+    if args.bt == "show":
+        for spec in specs:
+            console.print(to_ascii(spec), highlight=False)
+        if args.png:
+            out = Path(args.png)
+            out.mkdir(parents=True, exist_ok=True)
+            for i, spec in enumerate(specs):
+                render_png(spec, out / f"csubbt{i}.png")
+            console.print(f"wrote {len(specs)} PNG files to {out}")
+        return 0
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    for name, text in to_btcpp_files(specs).items():
+        (out / name).write_text(text)
+    console.print(f"wrote BehaviorTree.CPP v4 XML of {len(specs)} subtrees to {out}")
+    return 0
+
+
+def _add_execute(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser("execute", help="plan and execute a household scenario (no LLM)")
+    p.add_argument("scenario", help="a shipped scenario name (e.g. object-loss-table) or a .toml")
+    p.add_argument("--out", help="folder for episode.json, report.md/html and the CSubBT XML")
+    p.add_argument("--json", action="store_true", help="print the episode as JSON")
+    _add_planner_options(p)
+    p.set_defaults(handler=_cmd_execute, seed=None)
+    bt = sub.add_parser("bt", help="the conditional behaviour subtrees of a scenario's plan")
+    bsub = bt.add_subparsers(dest="bt", required=True)
+    exp = bsub.add_parser("export", help="write BehaviorTree.CPP v4 XML")
+    exp.add_argument("scenario")
+    exp.add_argument("--out", default="bt")
+    _add_planner_options(exp)
+    exp.set_defaults(handler=_cmd_bt)
+    show = bsub.add_parser("show", help="print the subtrees (and render PNGs with --png DIR)")
+    show.add_argument("scenario")
+    show.add_argument("--png", help="folder for one PNG per subtree (needs graphviz)")
+    _add_planner_options(show)
+    show.set_defaults(handler=_cmd_bt)
 
 
 # -------------------------------------------------------------------------------------- main
@@ -213,6 +339,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_plan(sub)
     ex = sub.add_parser("examples", help="list the shipped example problems")
     ex.set_defaults(handler=_cmd_examples)
+    _add_execute(sub)
     _add_bench(sub)
     return parser
 

@@ -8,7 +8,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from llmpas.language.logic import Atom
+from llmpas.language.logic import Atom, Not
 
 if TYPE_CHECKING:
     from llmpas.execution.context import Context
@@ -36,7 +36,7 @@ class AnomalyReport:
     steps: tuple[int, ...]
     subtree: str
     sub_action: str
-    constraint: Atom
+    constraint: Atom | Not  # the unsatisfied literal
     constraint_name: str
     reason: str
     explored: Mapping[str, tuple[str, ...]]

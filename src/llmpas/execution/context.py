@@ -26,6 +26,15 @@ class Belief:
         self.values: dict[str, Any] = dict(values)
         self.observations: list[Observation] = []
 
+    def name(self, prefix: str, value: Any) -> str:
+        """A fresh object name for ``value`` (``prefix``, ``prefix_1``, ...), recorded."""
+        name, k = prefix, 0
+        while name in self.values:
+            k += 1
+            name = f"{prefix}_{k}"
+        self.values[name] = value
+        return name
+
     def snapshot(self) -> frozenset[Atom]:
         return frozenset(self.facts)
 
@@ -85,3 +94,10 @@ class Context:
     belief: Belief
     rng: np.random.Generator
     recorder: Recorder = field(default_factory=Recorder)
+    # the constraint space of the subtree that is running (set by its Explore decorator)
+    space: Any = None
+
+    def perceive(self, key: str, value: Any) -> None:
+        """Record a perception (e.g. a detected pose) for the running subtree's samplers."""
+        if self.space is not None:
+            self.space.perceive(key, value)

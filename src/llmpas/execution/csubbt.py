@@ -33,7 +33,7 @@ from llmpas.execution.anomaly import AnomalyReport, Failure
 from llmpas.execution.context import Context
 from llmpas.execution.space import ConstraintSpace, Dimension, Exhausted
 from llmpas.execution.world import SkillResult
-from llmpas.language.logic import Atom
+from llmpas.language.logic import Atom, Not
 
 log = logging.getLogger(__name__)
 
@@ -51,7 +51,7 @@ class Constraint:
 
     name: str
     check: Callable[[Values, Context], str | None]
-    atom: Callable[[Values], Atom]
+    atom: Callable[[Values], Atom | Not]
     needs: tuple[str, ...] = ()
     culprits: tuple[str, ...] | None = None
 
@@ -85,6 +85,7 @@ class SubtreeSpec:
     sub_actions: tuple[SubAction, ...]
     max_samples: int = 40
     on_success: Callable[[Values, Context], None] | None = None
+    on_failure: Callable[[Failure, Context], None] | None = None  # before the anomaly report
     atoms: tuple[Atom, ...] = field(default_factory=tuple)  # plan atoms this subtree achieves
 
     def __post_init__(self) -> None:
@@ -195,6 +196,7 @@ class Explore(py_trees.decorators.Decorator):
         self.failures = []
         self.bb.report = None
         self._new_space()
+        self.bb.context.space = self.bb.space
 
     def update(self) -> Status:
         status = self.decorated.status
@@ -211,6 +213,8 @@ class Explore(py_trees.decorators.Decorator):
             self.bb.context.recorder.event(self.name, "backtrack", failure.reason, space.values())
             self.decorated.stop(Status.INVALID)  # restart the sequence with the new values
             return Status.RUNNING
+        if self.spec.on_failure is not None:
+            self.spec.on_failure(failure, self.bb.context)
         self.bb.report = AnomalyReport.build(
             self.spec, failure, self.failures, space, self.bb.context
         )

@@ -88,13 +88,18 @@ class Problem:
         goal: Formula | str | Iterable[Atom | tuple[Any, ...]],
         implementations: Mapping[str, Any] | None = None,
         info: Mapping[str, StreamInfo] | None = None,
-        objects: Iterable[str] = (),
+        objects: Iterable[str] | Mapping[str, Any] = (),
         costs: Mapping[tuple[Any, ...], float] | None = None,
         name: str = "problem",
     ) -> Problem:
-        """Build a problem from Python: init atoms may hold arbitrary values (poses, arrays)."""
+        """Build a problem from Python: init atoms may hold arbitrary values (poses, arrays).
+
+        ``objects`` names objects that no init atom mentions; as a mapping it also gives the
+        Python value of named objects (e.g. ``{"p_cube": Placement(...)}``)."""
         init = list(init)
-        names = _string_names(init, goal) | {o.lower() for o in objects}
+        given = {k.lower(): v for k, v in objects.items()} if isinstance(objects, Mapping) else {}
+        objects = [o.lower() for o in objects]
+        names = _string_names(init, goal) | set(objects)
         namer = ValueNamer(taken=[c.name for c in domain.constants] + sorted(names))
         atoms = [_atom_from(x, namer) for x in init]
         goal_f = _goal_from(goal, domain, namer)
@@ -111,7 +116,7 @@ class Problem:
                 raise ModelError(
                     f"goal: unknown object {unknown[0]!r} in {a} (not in init or objects)"
                 )
-        values = {n: namer.values.get(n, n) for n in names}
+        values = {n: given.get(n, namer.values.get(n, n)) for n in names}
         bs, bf = bind(streams, implementations or {}, info)
         types = dict.fromkeys(values, "object")  # objects from Python are untyped
         return cls(

@@ -342,6 +342,7 @@ class Semantics:
     domain: Domain
     object_types: Mapping[str, str]
     costs: Mapping[FuncTerm, float] = field(default_factory=dict)
+    strict_costs: bool = True  # False: a cost term without a value counts 0 (for belief updates)
 
     def __post_init__(self) -> None:
         types = dict(self.object_types)
@@ -447,6 +448,8 @@ class Semantics:
             return float(amount)
         term = FuncTerm(amount.name, tuple(sub.term(t) for t in amount.args))
         if term not in self.costs:
+            if not self.strict_costs:
+                return 0.0
             raise ModelError(f"no value for cost function {term}")
         return self.costs[term]
 

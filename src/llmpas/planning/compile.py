@@ -14,11 +14,11 @@ Fast Downward wants integer costs: every cost is multiplied by ``COST_SCALE`` an
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from llmpas.language.bindings import BoundFunction
-from llmpas.language.domain import Domain, Signature
+from llmpas.language.domain import Action, Domain, Signature
 from llmpas.language.logic import (
     And,
     Atom,
@@ -34,9 +34,13 @@ from llmpas.language.logic import (
     Param,
     Substitution,
     When,
+    atoms_of,
+    conjuncts,
+    effect_atoms,
 )
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import State, nnf
+from llmpas.language.streams import StreamSchema
 from llmpas.planning.instances import (
     OptInstance,
     StreamFailure,
@@ -90,31 +94,157 @@ def _effects(effects: tuple[EffectItem, ...], neg: set[str], unit: bool) -> tupl
 
 
 @dataclass(frozen=True)
+class Inlined:
+    """A deferred stream compiled into an action: its certified atom in the precondition was
+    replaced by the stream's ``:domain``, and its output parameters were dropped."""
+
+    stream: str
+    inputs: tuple[str, ...]  # action terms feeding the stream's inputs
+    outputs: tuple[str, ...]  # the dropped action parameters, in stream output order
+    certified: tuple[Atom, ...]  # the stream's certified atoms over action terms
+
+
+@dataclass(frozen=True)
 class CompiledDomain:
     domain: Domain
     text: str
+    # action name -> (original parameters, inlined deferred streams)
+    inlined: Mapping[str, tuple[tuple[Param, ...], tuple[Inlined, ...]]] = field(
+        default_factory=dict
+    )
+
+    def expand(
+        self, name: str, args: tuple[str, ...], fresh: Callable[[], str]
+    ) -> tuple[tuple[str, ...], list[tuple[Inlined, dict[str, str]]]]:
+        """The original arguments of a compiled action (dropped outputs get fresh placeholders)
+        and its inlined stream uses with their ground substitution."""
+        if name not in self.inlined:
+            return args, []
+        original, uses = self.inlined[name]
+        compiled = [p for p in original if all(p.name not in u.outputs for u in uses)]
+        env = dict(zip((p.name for p in compiled), args, strict=True))
+        for u in uses:
+            for o in u.outputs:
+                env[o] = fresh()
+        return tuple(env[p.name] for p in original), [(u, env) for u in uses]
 
 
-def compile_domain(problem: Problem, negative_tests: set[str]) -> CompiledDomain:
-    """The domain as Fast Downward gets it; the same for every iteration of a planning run."""
+def inlinable_streams(problem: Problem, deferred: frozenset[str]) -> frozenset[str]:
+    """Deferred streams that need no instances: their outputs feed no stream, and their certified
+    predicates are certified by no other stream and used only positively in action
+    preconditions (top-level conjuncts), never in derived predicates, effects or the goal."""
+    out = set()
+    certified_by: dict[str, set[str]] = {}
+    for b in problem.bound_streams.values():
+        for a in b.schema.certified:
+            certified_by.setdefault(a.predicate, set()).add(b.schema.name)
+    stream_domains = {a.predicate for b in problem.bound_streams.values() for a in b.schema.domain}
+    d = problem.domain
+    elsewhere = {a.predicate for x in d.derived for a in atoms_of(x.body)}
+    elsewhere |= {a.predicate for a in atoms_of(problem.goal)}
+    for act in d.actions:
+        elsewhere |= {a.predicate for _, a in effect_atoms(act.effects)}
+        top = {c for c in conjuncts(act.precondition) if isinstance(c, Atom)}
+        elsewhere |= {a.predicate for a in atoms_of(act.precondition) if a not in top}
+    for name in deferred:
+        schema = problem.bound_streams[name].schema
+        preds = {a.predicate for a in schema.certified}
+        if any(certified_by[p] != {name} for p in preds) or preds & (elsewhere | stream_domains):
+            continue
+        if schema.outputs and all(_outputs_private(act, schema) for act in d.actions):
+            out.add(name)
+    return frozenset(out)
+
+
+def _outputs_private(act: Action, schema: StreamSchema) -> bool:
+    """In ``act``, the stream's output variables are parameters used only in its atoms."""
+    preds = {a.predicate for a in schema.certified}
+    mine = [c for c in conjuncts(act.precondition) if isinstance(c, Atom) and c.predicate in preds]
+    if not mine:
+        return True
+    outs = _output_terms(mine, schema)
+    if outs is None:
+        return False
+    params = {p.name for p in act.params}
+    others = [a for a in atoms_of(act.precondition) if a not in mine]
+    used = {t for a in others for t in a.args} | {
+        t for _, a in effect_atoms(act.effects) for t in a.args
+    }
+    return all(o in params and o not in used for o in outs)
+
+
+def _output_terms(atoms: list[Atom], schema: StreamSchema) -> tuple[str, ...] | None:
+    """Match the stream's certified atoms to the action's: the terms standing for its outputs."""
+    env: dict[str, str] = {}
+    for a in atoms:
+        pattern = next((c for c in schema.certified if c.predicate == a.predicate), None)
+        if pattern is None:
+            return None
+        for v, t in zip(pattern.args, a.args, strict=True):
+            if env.setdefault(v, t) != t:
+                return None
+    if any(o not in env for o in schema.outputs):
+        return None
+    return tuple(env[o] for o in schema.outputs)
+
+
+def _inline(act: Action, schemas: list[StreamSchema]) -> tuple[Action, tuple[Inlined, ...]]:
+    uses: list[Inlined] = []
+    parts = list(conjuncts(act.precondition))
+    for schema in schemas:
+        preds = {a.predicate for a in schema.certified}
+        mine = [c for c in parts if isinstance(c, Atom) and c.predicate in preds]
+        if not mine:
+            continue
+        env: dict[str, str] = {}
+        for a in mine:
+            pattern = next(c for c in schema.certified if c.predicate == a.predicate)
+            env.update(zip(pattern.args, a.args, strict=True))
+        sub = Substitution(env)
+        parts = [c for c in parts if c not in mine] + [sub.atom(x) for x in schema.domain]
+        uses.append(
+            Inlined(
+                schema.name,
+                tuple(env[v] for v in schema.inputs),
+                tuple(env[v] for v in schema.outputs),
+                tuple(sub.atom(x) for x in schema.certified),
+            )
+        )
+    dropped = {o for u in uses for o in u.outputs}
+    params = tuple(p for p in act.params if p.name not in dropped)
+    return replace(act, params=params, precondition=And(tuple(parts))), tuple(uses)
+
+
+def compile_domain(
+    problem: Problem, negative_tests: set[str], inline: frozenset[str] = frozenset()
+) -> CompiledDomain:
+    """The domain as Fast Downward gets it; the same for every iteration of a planning run.
+
+    Streams in ``inline`` (see :func:`inlinable_streams`) are compiled into the actions."""
     d = problem.domain
     unit = not d.uses_costs()
-    actions = tuple(
-        replace(
-            a,
-            precondition=_rewrite(a.precondition, negative_tests),
-            effects=_effects(a.effects, negative_tests, unit),
+    schemas = [problem.bound_streams[n].schema for n in sorted(inline)]
+    inlined: dict[str, tuple[tuple[Param, ...], tuple[Inlined, ...]]] = {}
+    actions = []
+    for a in d.actions:
+        new, uses = _inline(a, schemas)
+        if uses:
+            inlined[a.name] = (a.params, uses)
+        actions.append(
+            replace(
+                new,
+                precondition=_rewrite(new.precondition, negative_tests),
+                effects=_effects(new.effects, negative_tests, unit),
+            )
         )
-        for a in d.actions
-    )
     derived = tuple(replace(x, body=_rewrite(x.body, negative_tests)) for x in d.derived)
     certified = problem.streams.certified_predicates
     preds = [Signature(name, _vars(arity)) for name, arity in certified.items()]
     preds += [Signature(rejected_predicate(p), _vars(certified[p])) for p in sorted(negative_tests)]
-    out = replace(d, actions=actions, derived=derived, undeclared={}).with_additions(
+    out = replace(d, actions=tuple(actions), derived=derived, undeclared={}).with_additions(
         predicates=preds
     )
-    return CompiledDomain(out, out.to_pddl())
+    return CompiledDomain(out, out.to_pddl(), inlined)
 
 
 def _vars(n: int) -> tuple[Param, ...]:

@@ -20,7 +20,7 @@ import time
 from dataclasses import dataclass, field
 
 from llmpas.language.bindings import BoundStream
-from llmpas.language.logic import Atom, FuncTerm
+from llmpas.language.logic import Atom, FuncTerm, Substitution
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics, State, preimage
 from llmpas.planning.compile import (
@@ -29,6 +29,7 @@ from llmpas.planning.compile import (
     compile_domain,
     compile_task,
     function_values,
+    inlinable_streams,
 )
 from llmpas.planning.config import PlannerConfig
 from llmpas.planning.downward import (
@@ -73,6 +74,7 @@ class _Run:
     negative_tests: set[str]
     assumed: frozenset[str]  # deferred streams: assumed, never evaluated here
     started: float
+    inline: frozenset[str] = frozenset()  # deferred streams compiled into the actions
     iterations: int = 0
     translate_time: float = 0.0
     search_time: float = 0.0
@@ -81,6 +83,10 @@ class _Run:
 
     def deferred(self, b: BoundStream) -> bool:
         return b.schema.name in self.assumed
+
+    def instantiated(self, b: BoundStream) -> bool:
+        """Whether the stream gets optimistic instances (inlined ones need none)."""
+        return b.schema.name not in self.inline
 
     def remaining(self) -> float:
         return self.config.max_time - (time.perf_counter() - self.started)
@@ -116,15 +122,17 @@ def solve(
     assumed = frozenset(
         b.schema.name for b in problem.bound_streams.values() if config.defer and b.info.deferred
     )
+    inline = inlinable_streams(problem, assumed)
     run = _Run(
         problem,
         config,
         classical,
         StreamStore(problem, started + config.max_time),
-        compile_domain(problem, negative),
+        compile_domain(problem, negative, inline),
         negative,
         assumed,
         started,
+        inline=inline,
     )
     try:
         if config.algorithm == "incremental":
@@ -146,7 +154,7 @@ def _focused(run: _Run) -> PlanResult:
         evaluate_negative_tests(store, _negative_streams(run))
         if store.out_of_time():
             return run.result(PlanStatus.TIMEOUT, f"no plan within {run.config.max_time} s")
-        opt = optimistic_instances(store, lambda b: True, run.config.max_level)
+        opt = optimistic_instances(store, run.instantiated, run.config.max_level)
         found = _search(run, opt)
         if isinstance(found, PlanResult):
             return found
@@ -210,7 +218,9 @@ def _incremental(run: _Run) -> PlanResult:
     while run.iterations < run.config.max_iterations:
         run.iterations += 1
         evaluate_negative_tests(store, _negative_streams(run))
-        opt = optimistic_instances(store, run.deferred, run.config.max_level)
+        opt = optimistic_instances(
+            store, lambda b: run.deferred(b) and run.instantiated(b), run.config.max_level
+        )
         found = _search(run, opt)
         if isinstance(found, PlanResult):
             return found
@@ -345,24 +355,37 @@ def _final_plan(
     classical_cost: float,
 ) -> Plan:
     """The plan: deferred instances go to the step that first needs them (the goal's to the last
-    step)."""
+    step); inlined deferred streams get fresh placeholders for their outputs."""
     steps_insts = [list(x) for x in per_step[: len(actions)]]
     if steps_insts and len(per_step) > len(actions):
         steps_insts[-1] += per_step[-1]
-    deferred = [i for insts in steps_insts for i in insts]
-    ref = {id(i): StreamInstance(i.stream.schema.name, i.inputs, i.outputs) for i in deferred}
+    counter = iter(range(1, 1_000_000))
+    steps: list[PlanStep] = []
+    facts: dict[StreamInstance, tuple[Atom, ...]] = {}
+    for (name, args), insts in zip(actions, steps_insts, strict=True):
+        mine = [StreamInstance(i.stream.schema.name, i.inputs, i.outputs) for i in insts]
+        facts.update({ref: i.certified for ref, i in zip(mine, insts, strict=True)})
+        full, uses = run.compiled.expand(name, args, lambda: f"#d{next(counter)}")
+        for use, env in uses:
+            sub = Substitution(env)
+            ref = StreamInstance(
+                use.stream,
+                tuple(sub.term(t) for t in use.inputs),
+                tuple(sub.term(t) for t in use.outputs),
+            )
+            mine.append(ref)
+            facts[ref] = tuple(sub.atom(a) for a in use.certified)
+        steps.append(PlanStep(name, full, tuple(mine)))
+    deferred = tuple(d for st in steps for d in st.deferred)
     certified = {a for a in run.store.facts if a not in run.problem.init}
-    certified |= {a for i in deferred for a in i.certified}
+    certified |= {a for d in deferred for a in facts[d]}
     return Plan(
-        steps=tuple(
-            PlanStep(name, args, tuple(ref[id(i)] for i in insts))
-            for (name, args), insts in zip(actions, steps_insts, strict=True)
-        ),
+        steps=tuple(steps),
         cost=classical_cost / COST_SCALE,
-        objects={**run.store.values, **{o: None for i in deferred for o in i.outputs}},
+        objects={**run.store.values, **{o: None for d in deferred for o in d.outputs}},
         certified=frozenset(certified),
-        deferred=tuple(ref[id(i)] for i in deferred),
-        deferred_facts={ref[id(i)]: i.certified for i in deferred},
+        deferred=deferred,
+        deferred_facts=facts,
     )
 
 

@@ -1,0 +1,1 @@
+"""llmpas.worlds.household: a household with a hidden true state."""

@@ -1,0 +1,487 @@
+"""From a household plan to conditional subtrees: each action's atomic sub-actions, constraints
+and conditional samplers.
+
+Every subtree perceives first (it looks at the region it works in, and the belief is updated from
+what is seen), then checks the plan step's precondition against the *believed* state — a literal
+that perception made false is a constraint failure naming that literal — and then runs its
+skills. A ``move_base`` step is merged into the action that follows it ("move-and-pick"): that
+subtree chooses its own base pose by evaluating the deferred ``inverse-kinematics`` /
+``sample-view`` stream on the perceived pose, and checks its drive with the deferred
+``plan-base-motion``.
+
+Exploration, in the order of the dimensions: where to look from (base poses facing the region),
+which region of the furniture to look at, the grasp, the base pose to act from.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass
+from typing import Any
+
+from llmpas.execution.anomaly import Failure
+from llmpas.execution.context import Belief, Context
+from llmpas.execution.csubbt import Constraint, SubAction, SubtreeSpec, Values
+from llmpas.execution.space import Dimension
+from llmpas.execution.world import Observation, SkillResult
+from llmpas.language.domain import Action
+from llmpas.language.logic import Atom, Formula, Not, Substitution, conjuncts, effect_atoms
+from llmpas.language.problem import Problem
+from llmpas.language.semantics import Semantics
+from llmpas.planning.result import Plan, PlanStep
+from llmpas.worlds.household.problem import (
+    PROPERTY_PREDICATE,
+    Household,
+    believe_at,
+    believed_place,
+)
+from llmpas.worlds.household.values import ArmTarget, BaseConf, Grasp, Motion, Placement
+
+BASE_ACTIONS = ("pick", "place", "scan_table", "scan_drawer", "scan_cover", "open", "close")
+Recipe = tuple[tuple[Dimension, ...], tuple[SubAction, ...]]
+OK = SkillResult.success()
+
+
+@dataclass(frozen=True)
+class ExplorationConfig:
+    """Budgets of the constraint-space exploration (per subtree)."""
+
+    view_bases: int = 3  # base poses to look from
+    grasps: int = 2
+    base_samples: int = 3  # base poses to act from, per grasp
+    max_samples: int = 40  # values drawn over a whole subtree
+
+
+# --------------------------------------------------------------------------- belief updates
+
+
+def observe(belief: Belief, house: Household, obs: Observation) -> None:
+    """Update the belief from one look: detected objects and their visible properties.
+
+    An object seen on the furniture where it was believed keeps its pose name and gets the seen
+    position (Cartesian correction); one seen elsewhere gets a new pose."""
+    belief.observations.append(obs)
+    for d in obs.detections:
+        if not isinstance(d.pose, Placement):
+            continue
+        _believe_seen(belief, house, d.obj, d.pose)
+        for prop, pred in PROPERTY_PREDICATE.items():
+            atom = Atom(pred.lower(), (d.obj,))
+            if prop in d.properties:
+                belief.facts.add(atom)
+            elif prop == "dirty":
+                belief.facts.discard(atom)  # seen clean
+
+
+def furniture_of(house: Household, region: str) -> str:
+    r = house.layout.regions.get(region)
+    return r.furniture if r is not None else region
+
+
+def _believe_seen(belief: Belief, house: Household, obj: str, place: Placement) -> None:
+    if belief.matching("atgrasp", obj):
+        return  # a held object is where the gripper is
+    for a in belief.matching("atpose", obj):
+        old = belief.values.get(a.args[1])
+        same = isinstance(old, Placement) and furniture_of(house, old.region) == furniture_of(
+            house, place.region
+        )
+        if same:
+            p = a.args[1]
+            belief.values[p] = place
+            belief.replace(
+                belief.matching("supported", obj, p), [Atom("supported", (obj, p, place.region))]
+            )
+            return
+    believe_at(belief, obj, place)
+
+
+def failing_literal(
+    sem: Semantics, belief: Belief, step: PlanStep, problem: Problem, plan: Plan
+) -> Formula | None:
+    """The first conjunct of the step's precondition that the believed state makes false.
+
+    Literals over stream-certified predicates (Kin, View, ...) and the base pose are not checked
+    here: the subtree satisfies them itself, with its samplers."""
+    action = problem.domain.action(step.action)
+    env = dict(zip((p.name for p in action.params), step.args, strict=True))
+    handled = set(problem.streams.certified_predicates) | {"atbconf"}
+    state = sem.state(belief.facts | plan.certified)
+    for c in conjuncts(action.precondition):
+        inner = c.arg if isinstance(c, Not) else c
+        if isinstance(inner, Atom) and inner.predicate in handled:
+            continue
+        ground = Substitution(env).formula(c)
+        if not sem.holds(ground, state):
+            return ground
+    return None
+
+
+# ------------------------------------------------------------------------------ the builder
+
+
+@dataclass
+class Builder:
+    """Builds the subtree specs of one plan, for one household and problem."""
+
+    house: Household
+    problem: Problem
+    plan: Plan
+    config: ExplorationConfig
+
+    def __post_init__(self) -> None:
+        self.sem = Semantics(self.problem.domain, {}, {}, strict_costs=False)
+
+    def specs(self) -> list[SubtreeSpec]:
+        steps = list(self.plan.steps)
+        out: list[SubtreeSpec] = []
+        i = 0
+        while i < len(steps):
+            merge = (
+                steps[i].action == "move_base"
+                and i + 1 < len(steps)
+                and steps[i + 1].action in BASE_ACTIONS
+            )
+            idx = (i, i + 1) if merge else (i,)
+            out.append(self.spec(idx, steps[idx[-1]], merged=merge))
+            i += len(idx)
+        return out
+
+    def spec(self, idx: tuple[int, ...], step: PlanStep, merged: bool) -> SubtreeSpec:
+        recipes: dict[str, Callable[[PlanStep], Recipe]] = {
+            "pick": self.pick,
+            "place": self.place,
+            "scan_table": self.scan,
+            "scan_drawer": self.scan,
+            "scan_cover": self.scan_cover,
+            "open": self.open_close,
+            "close": self.open_close,
+            "move_base": self.move,
+        }
+        dims, subs = recipes.get(step.action, self.process)(step)
+        prefix = "move-and-" if merged else ""
+        shown = _shown(step.args)
+        return SubtreeSpec(
+            label=f"{prefix}{step.action} {' '.join(shown)}".strip(),
+            steps=idx,
+            action=prefix + step.action,
+            args=tuple(shown),
+            fixed={},
+            dims=dims,
+            sub_actions=subs,
+            max_samples=self.config.max_samples,
+            on_success=self._effects([self.plan.steps[k] for k in idx]),
+            on_failure=self._forget(step),
+        )
+
+    # ---------------------------------------------------------------- shared pieces
+    def _precondition(self, step: PlanStep) -> Constraint:
+        """The step's precondition in the believed state, reported as the literal that fails."""
+        last: dict[str, Formula] = {}
+
+        def check(v: Values, ctx: Context) -> str | None:
+            lit = failing_literal(self.sem, ctx.belief, step, self.problem, self.plan)
+            if lit is None:
+                return None
+            last["lit"] = lit
+            return f"{lit} does not hold in what the robot perceives"
+
+        def atom(v: Values) -> Any:
+            return last.get("lit", Atom("precondition", (step.action,)))
+
+        return Constraint("Precondition", check, atom)
+
+    def _check(self, step: PlanStep, *extra: Constraint) -> SubAction:
+        return SubAction("check", lambda v, c: OK, constraints=(*extra, self._precondition(step)))
+
+    def _look(
+        self,
+        region_of: Callable[[Values, Context], str],
+        name: str = "look",
+        needs: tuple[str, ...] = (),
+    ) -> SubAction:
+        def run(v: Values, ctx: Context) -> SkillResult:
+            region = region_of(v, ctx)
+            obs = ctx.perception.look(region)
+            observe(ctx.belief, self.house, obs)
+            ctx.perceive("observed", obs)
+            return SkillResult.success(f"looked at {region}")
+
+        return SubAction(name, run, needs=needs)
+
+    def _go(self, name: str, key: str) -> SubAction:
+        def run(v: Values, ctx: Context) -> SkillResult:
+            target: BaseConf = v[key]
+            here = ctx.robot.base_conf()
+            if isinstance(here, BaseConf) and here.distance(target) < 1e-3:
+                return SkillResult.success("already there")
+            motion = next(self._stream("plan-base-motion", (here, target)), None)
+            waypoints = motion.waypoints[1:] if isinstance(motion, Motion) else (target,)
+            result = OK
+            for wp in waypoints:  # follow the deferred drive, way point by way point
+                result = ctx.robot.move_base(wp)
+                if not result.ok:
+                    break
+            return result
+
+        motion = Constraint(
+            "BaseMotion",
+            lambda v, ctx: self._drive_check(v[key], ctx),
+            lambda v: Atom("basemotion", ("here", str(v.get(key)))),
+            needs=(key,),
+        )
+        return SubAction(name, run, constraints=(motion,), needs=(key,))
+
+    def _drive_check(self, target: BaseConf, ctx: Context) -> str | None:
+        here = ctx.robot.base_conf()
+        if not isinstance(here, BaseConf):
+            return None
+        out = next(self._stream("plan-base-motion", (here, target)), None)
+        return None if out is not None else f"no collision-free drive to {target}"
+
+    def _stream(self, name: str, inputs: tuple[Any, ...]) -> Iterator[Any]:
+        """A (deferred) stream of the problem, evaluated now on perceived values."""
+        for out in self.problem.bound_streams[name].outputs(inputs):
+            yield out[0]
+
+    def _view_bases(self, region: Callable[[Values], str]) -> Dimension:
+        def sample(v: Values) -> Iterator[BaseConf]:
+            yield from self._stream("sample-view", (region(v),))
+
+        return Dimension("view_base", sample, budget=self.config.view_bases, describe=str)
+
+    def _reach_dims(
+        self, obj: str, where: Callable[[Values], Placement], kinds: Iterable[str]
+    ) -> tuple[Dimension, ...]:
+        grasps = [Grasp(k) for k in kinds]
+
+        def bases(v: Values) -> Iterator[BaseConf]:
+            yield from self._stream("inverse-kinematics", (obj, where(v), v["grasp"]))
+
+        return (
+            Dimension("grasp", lambda v: grasps, budget=self.config.grasps, describe=str),
+            Dimension("base", bases, budget=self.config.base_samples, describe=str),
+        )
+
+    def _arm(self, name: str, where: Callable[[Values], Placement], phase: str) -> SubAction:
+        def run(v: Values, ctx: Context) -> SkillResult:
+            p = where(v)
+            region = self.house.layout.regions.get(p.region)
+            z = region.height if region is not None else 0.8
+            return ctx.robot.move_arm(ArmTarget(p.x, p.y, z, v["grasp"], phase))
+
+        reach = Constraint(
+            "Kin",
+            lambda v, ctx: self._reach_check(where(v), v["base"]),
+            lambda v: Atom("kin", ("arm", str(where(v)), str(v.get("grasp")))),
+            needs=("grasp", "base"),
+        )
+        return SubAction(name, run, constraints=(reach,), needs=("grasp", "base"))
+
+    def _reach_check(self, p: Placement, base: BaseConf) -> str | None:
+        d = ((p.x - base.x) ** 2 + (p.y - base.y) ** 2) ** 0.5
+        return None if d <= self.house.layout.reach else f"{p} is {d:.2f} m from the base"
+
+    def _effects(self, steps: list[PlanStep]) -> Callable[[Values, Context], None]:
+        """Apply the PDDL effects of the steps to the belief; base placeholders get the pose
+        the robot actually used."""
+
+        def apply(v: Values, ctx: Context) -> None:
+            for st in steps:
+                for ref in st.deferred:
+                    if ref.stream in ("inverse-kinematics", "sample-view"):
+                        base = v.get("base", v.get("view_base"))
+                        ctx.belief.values.update(dict.fromkeys(ref.outputs, base))
+                action = self.problem.domain.action(st.action)
+                state = self.sem.state(ctx.belief.facts | self.plan.certified)
+                facts, _ = self.sem.apply(action, st.args, state)
+                changed = {a.predicate for _, a in _effect_atoms(action)}
+                keep = {a for a in ctx.belief.facts if a.predicate not in changed}
+                ctx.belief.facts = keep | {a for a in facts if a.predicate in changed}
+
+        return apply
+
+    def _forget(self, step: PlanStep) -> Callable[[Failure, Context], None]:
+        def forget(failure: Failure, ctx: Context) -> None:
+            if failure.constraint.name == "Detected" and step.args:
+                believe_at(ctx.belief, step.args[0], None)  # not where it was believed
+
+        return forget
+
+    # ---------------------------------------------------------------- recipes
+    def _locate(self, obj: str, region: str) -> Recipe:
+        furniture = furniture_of(self.house, region)
+        siblings = [region] + [
+            r.name for r in self.house.layout.regions_of(furniture) if r.name != region
+        ]
+
+        def detected(v: Values, ctx: Context) -> str | None:
+            d = v["observed"].find(obj)
+            where = getattr(d.pose, "region", "") if d is not None else ""
+            if d is None or furniture_of(self.house, where) != furniture:
+                return f"{obj} not detected on {furniture} (looked at {v['view']})"
+            ctx.perceive("detected", d.pose)
+            return None
+
+        found = Constraint(
+            "Detected", detected, lambda v: Atom("on", (obj, region)), needs=("view_base", "view")
+        )
+        dims = (
+            self._view_bases(lambda v: region),
+            Dimension("view", lambda v: list(siblings), budget=len(siblings)),
+        )
+        subs = (
+            self._go("go_look", "view_base"),
+            self._look(lambda v, c: v["view"], needs=("view",)),
+            SubAction("locate", lambda v, c: OK, constraints=(found,)),
+        )
+        return dims, subs
+
+    def pick(self, step: PlanStep) -> Recipe:
+        obj, region = step.args[0], step.args[2]
+        dims, subs = self._locate(obj, region)
+        kinds = ["top"] if self.house.objects[obj].cover else ["top", "forward"]
+        grasped = Constraint(
+            "Grasped",
+            lambda v, c: None,
+            lambda v: Atom("holding", (obj,)),
+            needs=("grasp",),
+            culprits=("grasp",),
+        )
+        return dims + self._reach_dims(obj, lambda v: v["detected"], kinds), (
+            *subs,
+            self._check(step),
+            self._go("pre_approach_base", "base"),
+            self._arm("pre_approach", lambda v: v["detected"], "pre"),
+            self._arm("approach", lambda v: v["detected"], "at"),
+            SubAction(
+                "grasp",
+                lambda v, c: c.robot.grasp(obj, v["grasp"]),
+                needs=("grasp",),
+                on_failure=grasped,
+            ),
+        )
+
+    def place(self, step: PlanStep) -> Recipe:
+        obj, p, region = step.args[0], step.args[1], step.args[2]
+        holder = region if region in self.house.objects else None  # into a bowl
+        planned = self.plan.objects.get(p) or self.problem.objects.get(p)
+
+        def where(v: Values, ctx: Context) -> str:
+            at = believed_place(ctx.belief, holder) if holder else None
+            return at.region if at is not None else self._holder_region(region)
+
+        def find_spot(v: Values, ctx: Context) -> str | None:
+            if holder is None:
+                ctx.perceive("spot", planned)
+                return None
+            at = believed_place(ctx.belief, holder)
+            if at is None:
+                return f"{holder} is nowhere the robot knows"
+            ctx.perceive("spot", Placement(holder, at.x, at.y))
+            return None
+
+        spot = Constraint("Located", find_spot, lambda v: Atom("region", (region,)))
+        released = Constraint(
+            "Released", lambda v, c: None, lambda v: Atom("on", (obj, region)), needs=("base",)
+        )
+        dims = (self._view_bases(lambda v: self._holder_region(region)),)
+        return dims + self._reach_dims(obj, lambda v: v["spot"], ["top"]), (
+            self._go("go_look", "view_base"),
+            self._look(where),
+            self._check(step, spot),
+            self._go("pre_approach_base", "base"),
+            self._arm("pre_approach", lambda v: v["spot"], "pre"),
+            self._arm("approach", lambda v: v["spot"], "at"),
+            SubAction(
+                "release",
+                lambda v, c: c.robot.release(obj, v["spot"]),
+                needs=("base",),
+                on_failure=released,
+            ),
+        )
+
+    def _holder_region(self, region: str) -> str:
+        """The layout region to look at: the region itself, or where a receptacle object stood
+        in the plan's initial state."""
+        if region in self.house.layout.regions:
+            return region
+        for a in self.problem.init:
+            if a.predicate == "atpose" and a.args[0] == region:
+                value = self.problem.objects.get(a.args[1])
+                if isinstance(value, Placement):
+                    return value.region
+        return region
+
+    def scan(self, step: PlanStep) -> Recipe:
+        region = step.args[0]
+        return (self._view_bases(lambda v: region),), (
+            self._go("go_look", "view_base"),
+            self._check(step),
+            self._look(lambda v, c: region),
+        )
+
+    def scan_cover(self, step: PlanStep) -> Recipe:
+        cover, region = step.args[0], step.args[2]
+        dims, subs = self._locate(cover, region)
+        return dims + self._reach_dims(cover, lambda v: v["detected"], ["top"]), (
+            *subs,
+            self._go("pre_approach_base", "base"),
+            self._arm("approach", lambda v: v["detected"], "at"),
+            SubAction("lift", lambda v, c: c.robot.grasp(cover, v["grasp"]), needs=("grasp",)),
+            self._arm("raise", lambda v: v["detected"], "pre"),
+            self._look(lambda v, c: region, name="look_under"),
+            self._arm("lower", lambda v: v["detected"], "at"),
+            SubAction("put_back", lambda v, c: c.robot.release(cover, v["detected"])),
+        )
+
+    def open_close(self, step: PlanStep) -> Recipe:
+        region = step.args[0]
+        opening = step.action == "open"
+        return (self._view_bases(lambda v: region),), (
+            self._go("go_to", "view_base"),
+            SubAction(
+                step.action,
+                lambda v, c: c.robot.open(region) if opening else c.robot.close(region),
+                needs=("view_base",),
+            ),
+            self._look(lambda v, c: region),
+        )
+
+    def process(self, step: PlanStep) -> Recipe:
+        obj, region = step.args[0], step.args[1]
+        return (), (
+            self._look(lambda v, c: region, name="inspect"),
+            self._check(step),
+            SubAction(step.action, lambda v, c: c.robot.process(obj, region, step.action)),
+        )
+
+    def move(self, step: PlanStep) -> Recipe:
+        q2 = step.args[1]
+
+        def target(v: Values) -> Iterator[BaseConf]:
+            value = self.plan.objects.get(q2) or self.problem.objects.get(q2)
+            if isinstance(value, BaseConf):
+                yield value
+
+        dims = (Dimension("base", target, budget=1, describe=str),)
+        return dims, (self._go("move_base", "base"),)
+
+
+def _effect_atoms(action: Action) -> Iterator[tuple[bool, Atom]]:
+    return effect_atoms(action.effects)
+
+
+def _shown(args: Iterable[str]) -> list[str]:
+    """Plan arguments for labels: placeholders of deferred streams are shown as '?'."""
+    return [a if not a.startswith("#") else "?" for a in args]
+
+
+def build_specs(
+    house: Household, problem: Problem, plan: Plan, config: ExplorationConfig | None = None
+) -> list[SubtreeSpec]:
+    """The conditional subtrees of a household plan, in order."""
+    return Builder(house, problem, plan, config or ExplorationConfig()).specs()
+
+
+__all__ = ["ExplorationConfig", "build_specs", "failing_literal", "furniture_of", "observe"]

@@ -1,0 +1,158 @@
+"""The robot's side of the household: static knowledge, believed state, and planning problems.
+
+Everything here is built from what the robot knows or perceives (a :class:`Belief`), never from
+the simulator's true state.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection, Iterable, Mapping
+from dataclasses import dataclass
+from functools import cache
+from importlib import resources
+from typing import Any
+
+import numpy as np
+
+from llmpas.execution.context import Belief
+from llmpas.language.domain import Domain, parse_domain
+from llmpas.language.logic import Atom, Formula
+from llmpas.language.problem import Problem
+from llmpas.language.streams import StreamSpec, parse_streams
+from llmpas.worlds.household.layout import Layout, ObjectSpec
+from llmpas.worlds.household.streams import DEFAULT_DEFERRED, make_streams
+from llmpas.worlds.household.values import BaseConf, Placement
+
+PACKAGE = "llmpas.worlds.household"
+PROCESS_PREDICATE = {"clean": "Sink", "cook": "Stove", "heat": "Microwave", "cool": "Fridge"}
+PROPERTY_PREDICATE = {
+    "dirty": "Dirty",
+    "cleaned": "Cleaned",
+    "cooked": "Cooked",
+    "heated": "Heated",
+    "cooled": "Cooled",
+}
+
+
+@cache
+def _text(name: str) -> str:
+    return resources.files(PACKAGE).joinpath(name).read_text(encoding="utf-8")
+
+
+def load_domain() -> Domain:
+    return parse_domain(_text("domain.pddl"), "household/domain.pddl")
+
+
+def load_streams() -> StreamSpec:
+    return parse_streams(_text("stream.pddl"), "household/stream.pddl")
+
+
+@dataclass(frozen=True)
+class Household:
+    """What the robot knows that does not change: the layout and the objects' shapes."""
+
+    layout: Layout
+    objects: Mapping[str, ObjectSpec]
+
+    def static_facts(self) -> set[Atom]:
+        facts: set[Atom] = set()
+        regions = dict(self.layout.regions)
+        for r in regions.values():
+            facts.add(Atom.of("Region", r.name))
+            if r.kind == "surface":
+                facts.add(Atom.of("Surface", r.name))
+            if r.name.startswith("drawer"):
+                facts.add(Atom.of("Drawer", r.name))
+            if r.openable:
+                facts.add(Atom.of("Openable", r.name))
+            if r.process:
+                facts.add(Atom.of(PROCESS_PREDICATE[r.process], r.name))
+            if r.capacity == 1:
+                facts.add(Atom.of("Single", r.name))
+        receptacles = [o for o in self.objects.values() if o.receptacle_capacity]
+        for o in receptacles:
+            facts.add(Atom.of("Region", o.name))
+            if o.receptacle_capacity == 1:
+                facts.add(Atom.of("Single", o.name))
+        for o in self.objects.values():
+            facts.add(Atom.of("Object", o.name))
+            if o.cover:
+                facts.add(Atom.of("Cover", o.name))
+            for r in regions.values():
+                if not o.cover or r.kind == "surface":
+                    facts.add(Atom.of("Stackable", o.name, r.name))
+            if not o.cover and not o.receptacle_capacity:
+                facts |= {Atom.of("Stackable", o.name, b.name) for b in receptacles}
+        return facts
+
+
+def believe_at(belief: Belief, obj: str, place: Placement | None) -> None:
+    """Believe ``obj`` rests at ``place`` (None: its whereabouts are unknown)."""
+    old = [a for a in belief.facts if a.predicate in ("atpose", "supported") and a.args[0] == obj]
+    belief.facts -= set(old)
+    belief.facts -= {a for a in belief.facts if a.predicate == "pose" and a.args[0] == obj}
+    if place is None:
+        return
+    p = belief.name(f"p_{obj}", place)
+    belief.facts |= {
+        Atom("pose", (obj, p)),
+        Atom("atpose", (obj, p)),
+        Atom("supported", (obj, p, place.region)),
+    }
+
+
+def believed_place(belief: Belief, obj: str) -> Placement | None:
+    for a in belief.facts:
+        if a.predicate == "atpose" and a.args[0] == obj:
+            value = belief.values.get(a.args[1])
+            return value if isinstance(value, Placement) else None
+    return None
+
+
+def initial_belief(
+    house: Household,
+    places: Mapping[str, Placement | None],
+    base: BaseConf,
+    open_regions: Iterable[str] = (),
+    properties: Mapping[str, Collection[str]] | None = None,
+) -> Belief:
+    """The robot's belief at the start: where it thinks objects are, what is open, its base."""
+    belief = Belief(house.static_facts(), {})
+    for obj, place in places.items():
+        believe_at(belief, obj, place)
+    q = belief.name("q0", base)
+    belief.facts |= {
+        Atom("bconf", (q,)),
+        Atom("atbconf", (q,)),
+        Atom("handempty", ()),
+        Atom("canmove", ()),
+    }
+    belief.facts |= {Atom("open", (r,)) for r in open_regions}
+    for obj, props in (properties or {}).items():
+        belief.facts |= {Atom(PROPERTY_PREDICATE[p].lower(), (obj,)) for p in props}
+    return belief
+
+
+def make_problem(
+    house: Household,
+    belief: Belief,
+    goal: Formula | str,
+    rng: np.random.Generator,
+    deferred: Collection[str] = DEFAULT_DEFERRED,
+) -> Problem:
+    """The planning problem from the believed state."""
+    facts = set(belief.facts)
+    used = {t for a in facts for t in a.args}
+    values: dict[str, Any] = {n: v for n, v in belief.values.items() if n in used}
+    streams = make_streams(
+        house.layout, house.objects, lambda o: believed_place(belief, o), rng, deferred
+    )
+    return Problem.create(
+        load_domain(),
+        load_streams(),
+        init=sorted(facts),
+        goal=goal,
+        implementations=streams,
+        objects=values,
+        name="household",
+    )
