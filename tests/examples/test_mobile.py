@@ -56,7 +56,7 @@ def test_defer_streams() -> None:
         make_problem(1, 0, defer_streams=("teleport",))
 
 
-@pytest.mark.parametrize(("n", "seed"), itertools.product((1, 2, 4, 7), (0, 1, 2)))
+@pytest.mark.parametrize(("n", "seed"), list(itertools.product((1, 2, 4, 7), (0, 1, 2))))
 def test_kitchens_are_well_formed(n: int, seed: int) -> None:
     k = make_kitchen(n, seed)
     assert len(k.objects) == len(k.start) == len(k.goals) == n

@@ -36,7 +36,7 @@ def test_files_parse_with_the_expected_streams() -> None:
     assert p.streams.stream("test-cfree").is_test
 
 
-@pytest.mark.parametrize(("n", "seed"), itertools.product(SIZES, SEEDS))
+@pytest.mark.parametrize(("n", "seed"), list(itertools.product(SIZES, SEEDS)))
 def test_worlds_are_feasible(n: int, seed: int) -> None:
     w = make_world(n, seed)
     assert len(w.blocks) == len(w.regions) == len(w.start) == n

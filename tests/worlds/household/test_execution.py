@@ -93,3 +93,12 @@ def test_every_csubbt_of_a_household_plan_loads_in_behaviortree_cpp() -> None:
     assert len(files) == len(r.specs) + 1  # one per CSubBT plus the plan
     for text in files.values():
         load_in_btcpp(text)
+
+
+def test_each_subtree_maps_back_to_its_plan_steps_and_atoms() -> None:
+    r = run("nominal")
+    steps = r.plan.plan.steps  # type: ignore[union-attr]
+    covered = [i for spec in r.specs for i in spec.steps]
+    assert covered == list(range(len(steps)))  # every step once, in order
+    pick = next(s for s in r.specs if s.action == "move-and-pick")
+    assert any(a.predicate == "atgrasp" and a.args[0] == "cube" for a in pick.atoms)

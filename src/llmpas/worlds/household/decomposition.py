@@ -172,7 +172,17 @@ class Builder:
             max_samples=self.config.max_samples,
             on_success=self._effects([self.plan.steps[k] for k in idx]),
             on_failure=self._forget(step),
+            atoms=self._achieves([self.plan.steps[k] for k in idx]),
         )
+
+    def _achieves(self, steps: list[PlanStep]) -> tuple[Atom, ...]:
+        """The ground atoms the steps add (what the subtree is for), for reports and maps."""
+        out: list[Atom] = []
+        for st in steps:
+            action = self.problem.domain.action(st.action)
+            sub = Substitution(dict(zip((p.name for p in action.params), st.args, strict=True)))
+            out += [sub.atom(a) for add, a in _effect_atoms(action) if add]
+        return tuple(out)
 
     # ---------------------------------------------------------------- shared pieces
     def _precondition(self, step: PlanStep) -> Constraint:
