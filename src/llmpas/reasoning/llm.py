@@ -1,0 +1,102 @@
+"""What the reasoner needs from a language model: one small Protocol and its value types.
+
+Backends (``openai``, ``llama-cpp``, ``replay``, ``oracle``) implement :class:`LLM`. A request is
+plain data (messages plus optional decoding constraints), so it can be hashed, recorded and
+replayed; a response records text, token usage and latency. LLM output is data: it is parsed,
+never executed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any, Literal, Protocol, runtime_checkable
+
+Role = Literal["system", "user", "assistant"]
+
+
+@dataclass(frozen=True)
+class Message:
+    role: Role
+    content: str
+
+    def __post_init__(self) -> None:
+        if self.role not in ("system", "user", "assistant"):
+            raise ValueError(f"message role must be system/user/assistant, got {self.role!r}")
+
+
+@dataclass(frozen=True)
+class Request:
+    """One chat completion request.
+
+    ``grammar``: a GBNF grammar (llama.cpp) constraining the output; ``json_schema``: a JSON
+    schema (OpenAI structured outputs). Backends use whichever they support.
+    """
+
+    messages: tuple[Message, ...]
+    temperature: float = 0.0
+    max_tokens: int = 512
+    seed: int | None = None
+    grammar: str | None = None
+    json_schema: Mapping[str, Any] | None = None
+    tag: str = ""  # what the request is for (e.g. "flp-step1"); not part of the key
+
+    def __post_init__(self) -> None:
+        if not self.messages:
+            raise ValueError("a request needs at least one message")
+        if not 0.0 <= self.temperature <= 2.0:
+            raise ValueError(f"temperature must be in [0, 2], got {self.temperature}")
+        if self.max_tokens < 1:
+            raise ValueError(f"max_tokens must be >= 1, got {self.max_tokens}")
+        if self.json_schema is not None:
+            object.__setattr__(self, "json_schema", MappingProxyType(dict(self.json_schema)))
+
+    def key(self) -> str:
+        """A stable hash of everything that determines the answer (for record/replay)."""
+        data = {
+            "messages": [[m.role, m.content] for m in self.messages],
+            "temperature": self.temperature,
+            "max_tokens": self.max_tokens,
+            "seed": self.seed,
+            "grammar": self.grammar,
+            "json_schema": _plain(self.json_schema),
+        }
+        text = json.dumps(data, sort_keys=True, ensure_ascii=False)
+        return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def _plain(x: Any) -> Any:
+    if isinstance(x, Mapping):
+        return {k: _plain(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_plain(v) for v in x]
+    return x
+
+
+@dataclass(frozen=True)
+class Response:
+    text: str
+    model: str = ""
+    prompt_tokens: int = 0
+    completion_tokens: int = 0
+    latency: float = 0.0  # seconds
+    meta: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "meta", MappingProxyType(dict(self.meta)))
+
+
+class LLMError(RuntimeError):
+    """A backend could not answer (timeout, HTTP error, missing model): one line saying why."""
+
+
+@runtime_checkable
+class LLM(Protocol):
+    """A chat model. ``complete`` raises :class:`LLMError` when it cannot answer."""
+
+    name: str
+
+    def complete(self, request: Request) -> Response: ...
