@@ -329,6 +329,100 @@ def _add_execute(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> No
     show.set_defaults(handler=_cmd_bt)
 
 
+# ----------------------------------------------------------------------------------- run
+
+
+def _llm(spec: str, record: str | None) -> Any:
+    """``oracle`` | ``replay:DIR`` | ``openai:MODEL[@BASE_URL]`` | ``llama-cpp[:PATH]``."""
+    from llmpas.reasoning.backends.llamacpp import LlamaCppBackend
+    from llmpas.reasoning.backends.openai_http import OpenAIBackend
+    from llmpas.reasoning.backends.replay import ReplayBackend
+    from llmpas.reasoning.models import DEFAULT_MODEL, model_path
+    from llmpas.system import oracle_factory
+
+    kind, _, arg = spec.partition(":")
+    if kind == "oracle":
+        if record:
+            raise CliError("--record does not apply to the oracle")
+        return oracle_factory
+    if kind == "replay":
+        if not arg:
+            raise CliError("--llm replay:DIR needs the cassette folder")
+        return ReplayBackend(Path(arg), mode="replay")
+    if kind == "openai":
+        model, _, base_url = arg.partition("@")
+        if not model:
+            raise CliError("--llm openai:MODEL[@BASE_URL] needs a model name")
+        inner: Any = OpenAIBackend(model, base_url=base_url or None)
+    elif kind == "llama-cpp":
+        path = Path(arg) if arg else model_path(DEFAULT_MODEL)
+        inner = LlamaCppBackend(path)
+    else:
+        raise CliError(f"--llm {spec!r}: expected oracle, replay:DIR, openai:MODEL or llama-cpp")
+    return ReplayBackend(Path(record), inner=inner, mode="record") if record else inner
+
+
+def _cmd_run(args: argparse.Namespace, console: Console) -> int:
+    from llmpas.reasoning.llm import LLMError
+    from llmpas.reasoning.methods import MethodConfig
+    from llmpas.system import LoopConfig, run_loop
+    from llmpas.worlds.household.run import RunConfig
+    from llmpas.worlds.household.scenario import ScenarioError
+
+    try:
+        method = MethodConfig(method=args.method, decoding=args.decoding)
+        config = LoopConfig(
+            method=method,
+            max_rounds=args.rounds,
+            run=RunConfig(planner=_planner_config(args), seed=args.seed),
+        )
+        llm = _llm(args.llm, args.record)
+        with console.status(f"running {args.scenario} with {args.llm} ({args.method}) ..."):
+            result = run_loop(args.scenario, llm, config)
+    except (ValueError, ScenarioError, FileNotFoundError, LLMError) as e:
+        raise CliError(str(e)) from None
+    for i, rnd in enumerate(result.rounds):
+        ep = rnd.episode
+        status = ep.status.value if ep else f"no plan ({rnd.plan.status.value})"
+        console.print(f"round {i}: goal {rnd.goal} -> {status}", highlight=False)
+        if ep is not None and ep.anomaly is not None:
+            console.print(
+                f"  anomaly: {ep.anomaly.constraint} ({ep.anomaly.reason})", highlight=False
+            )
+        if rnd.proposal is not None:
+            p = rnd.proposal
+            console.print(
+                f"  {p.method}: {' '.join(map(str, p.goals)) or p.parse.status.value}"
+                f" ({p.repairs} repairs, {p.latency:.1f} s)",
+                highlight=False,
+            )
+    if args.out:
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        console.print(f"wrote {result.save(out / 'loop.json')}")
+    verdict = "[bold green]task done[/]" if result.success else "[bold red]not done[/]"
+    console.print(f"{verdict}: {result.message}")
+    return 0 if result.success else 1
+
+
+def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser("run", help="the closed loop: plan, execute, reason about anomalies")
+    p.add_argument("scenario", help="a shipped scenario name or a .toml file")
+    p.add_argument(
+        "--llm",
+        default="llama-cpp",
+        help="oracle | replay:DIR | openai:MODEL[@BASE_URL] | llama-cpp[:PATH] "
+        "(default: the offline model)",
+    )
+    p.add_argument("--method", default="flp", choices=("flp", "flp-refer", "one-step"))
+    p.add_argument("--decoding", default="grammar", choices=("grammar", "schema", "none"))
+    p.add_argument("--rounds", type=int, default=3, help="LLM consultations at most")
+    p.add_argument("--record", help="record the LLM's answers into this cassette folder")
+    p.add_argument("--out", help="folder for loop.json")
+    _add_planner_options(p)
+    p.set_defaults(handler=_cmd_run, seed=None)
+
+
 # -------------------------------------------------------------------------------------- main
 
 
@@ -340,6 +434,7 @@ def build_parser() -> argparse.ArgumentParser:
     ex = sub.add_parser("examples", help="list the shipped example problems")
     ex.set_defaults(handler=_cmd_examples)
     _add_execute(sub)
+    _add_run(sub)
     _add_bench(sub)
     return parser
 

@@ -15,6 +15,7 @@ which region of the furniture to look at, the grasp, the base pose to act from.
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -37,6 +38,7 @@ from llmpas.worlds.household.problem import (
 )
 from llmpas.worlds.household.values import ArmTarget, BaseConf, Grasp, Motion, Placement
 
+_ADOPTED = frozenset({"pose", "supported", "grasp"})  # stream facts the belief keeps
 BASE_ACTIONS = ("pick", "place", "scan_table", "scan_drawer", "scan_cover", "open", "close")
 Recipe = tuple[tuple[Dimension, ...], tuple[SubAction, ...]]
 OK = SkillResult.success()
@@ -302,6 +304,8 @@ class Builder:
                     if ref.stream in ("inverse-kinematics", "sample-view"):
                         base = v.get("base", v.get("view_base"))
                         ctx.belief.values.update(dict.fromkeys(ref.outputs, base))
+                        ctx.belief.facts |= {Atom("bconf", (o,)) for o in ref.outputs}
+                self._adopt(st, ctx)
                 action = self.problem.domain.action(st.action)
                 state = self.sem.state(ctx.belief.facts | self.plan.certified)
                 facts, _ = self.sem.apply(action, st.args, state)
@@ -310,6 +314,18 @@ class Builder:
                 ctx.belief.facts = keep | {a for a in facts if a.predicate in changed}
 
         return apply
+
+    def _adopt(self, st: PlanStep, ctx: Context) -> None:
+        """What planning produced for this step becomes belief: the grasp and the placement
+        pose it used (their values and the facts streams certified about them)."""
+        for name in st.args:
+            value = self.plan.objects.get(name)
+            if value is None or name in ctx.belief.values or name in self.problem.objects:
+                continue  # only what streams produced
+            ctx.belief.values[name] = value
+            ctx.belief.facts |= {
+                a for a in self.plan.certified if a.predicate in _ADOPTED and name in a.args
+            }
 
     def _forget(self, step: PlanStep) -> Callable[[Failure, Context], None]:
         def forget(failure: Failure, ctx: Context) -> None:
@@ -337,7 +353,7 @@ class Builder:
             "Detected", detected, lambda v: Atom("on", (obj, region)), needs=("view_base", "view")
         )
         dims = (
-            self._view_bases(lambda v: region),
+            self._view_bases(lambda v: self._holder_region(region)),
             Dimension("view", lambda v: list(siblings), budget=len(siblings)),
         )
         subs = (
@@ -434,16 +450,66 @@ class Builder:
     def scan_cover(self, step: PlanStep) -> Recipe:
         cover, region = step.args[0], step.args[2]
         dims, subs = self._locate(cover, region)
-        return dims + self._reach_dims(cover, lambda v: v["detected"], ["top"]), (
+
+        def put_bases(v: Values) -> Iterator[BaseConf]:
+            yield from self._stream("inverse-kinematics", (cover, v["beside"], v["grasp"]))
+
+        put_base = Dimension("put_base", put_bases, budget=self.config.base_samples, describe=str)
+        lower = Constraint(
+            "Kin",
+            lambda v, ctx: self._reach_check(v["beside"], v["put_base"]),
+            lambda v: Atom("kin", ("arm", str(v.get("beside")), "top-grasp")),
+            needs=("put_base",),
+        )
+        return (*dims, *self._reach_dims(cover, lambda v: v["detected"], ["top"]), put_base), (
             *subs,
             self._go("pre_approach_base", "base"),
             self._arm("approach", lambda v: v["detected"], "at"),
             SubAction("lift", lambda v, c: c.robot.grasp(cover, v["grasp"]), needs=("grasp",)),
             self._arm("raise", lambda v: v["detected"], "pre"),
             self._look(lambda v, c: region, name="look_under"),
-            self._arm("lower", lambda v: v["detected"], "at"),
-            SubAction("put_back", lambda v, c: c.robot.release(cover, v["detected"])),
+            SubAction("choose_spot", lambda v, c: self._beside(cover, v["detected"], c)),
+            self._go("put_base", "put_base"),
+            SubAction(
+                "lower",
+                lambda v, c: c.robot.move_arm(self._target(v["beside"], v["grasp"], "at")),
+                constraints=(lower,),
+                needs=("put_base",),
+            ),
+            SubAction("put_down", lambda v, c: self._put_down(cover, v["beside"], c)),
         )
+
+    def _target(self, p: Placement, grasp: Grasp, phase: str) -> ArmTarget:
+        region = self.house.layout.regions.get(p.region)
+        return ArmTarget(p.x, p.y, region.height if region else 0.8, grasp, phase)
+
+    def _beside(self, cover: str, at: Placement, ctx: Context) -> SkillResult:
+        """A free spot for the cover on the same furniture, clear of what it covered (the robot
+        then drives where it can reach it)."""
+        radius = self.house.objects[cover].radius
+        others = [
+            (believed_place(ctx.belief, o), spec.radius)
+            for o, spec in self.house.objects.items()
+            if o != cover
+        ]
+        furniture = furniture_of(self.house, at.region)
+        regions = [r.name for r in self.house.layout.regions_of(furniture) if r.kind == "surface"]
+        for region in [at.region] + [r for r in regions if r != at.region]:
+            for p in itertools.islice(self._stream("sample-pose", (cover, region)), 40):
+                if all(
+                    q is None or q.region != p.region or p.distance(q) >= radius + r + 0.02
+                    for q, r in others
+                ):
+                    ctx.perceive("beside", p)
+                    return SkillResult.success(f"put the {cover} down at {p}")
+        return SkillResult.failure(f"no free spot for the {cover} on {furniture}")
+
+    def _put_down(self, cover: str, spot: Placement, ctx: Context) -> SkillResult:
+        result = ctx.robot.release(cover, spot)
+        if result.ok:
+            for a in ctx.belief.matching("atpose", cover):
+                ctx.belief.values[a.args[1]] = spot  # the cover now stands beside
+        return result
 
     def open_close(self, step: PlanStep) -> Recipe:
         region = step.args[0]

@@ -1,0 +1,126 @@
+"""Record/replay cassettes: one JSON file per request, named ``<Request.key()>.json``."""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import tempfile
+from pathlib import Path
+from typing import Any, Literal, get_args
+
+from llmpas.reasoning.llm import LLM, LLMError, Request, Response
+
+log = logging.getLogger(__name__)
+
+ReplayMode = Literal["replay", "record", "auto"]
+CASSETTE_VERSION = 1
+
+
+class ReplayBackend:
+    """Answers from recorded cassettes; records them from ``inner`` when asked.
+
+    ``replay``: only cassettes, a missing one is an :class:`LLMError`; ``record``: always ask
+    ``inner`` and (over)write the cassette; ``auto``: replay when recorded, otherwise record.
+    """
+
+    def __init__(
+        self, folder: str | os.PathLike[str], inner: LLM | None = None, mode: ReplayMode = "replay"
+    ) -> None:
+        if mode not in get_args(ReplayMode):
+            raise ValueError(f"mode must be one of {get_args(ReplayMode)}, got {mode!r}")
+        if mode == "record" and inner is None:
+            raise ValueError("record mode needs an inner LLM to record from")
+        self.folder = Path(folder)
+        self.inner = inner
+        self.mode: ReplayMode = mode
+        self.name = f"replay({inner.name})" if inner is not None else "replay"
+
+    def path_for(self, request: Request) -> Path:
+        return self.folder / f"{request.key()}.json"
+
+    def complete(self, request: Request) -> Response:
+        path = self.path_for(request)
+        if self.mode != "record" and path.is_file():
+            return self._load(path)
+        if self.mode == "replay" or self.inner is None:
+            raise self._missing(request)
+        response = self.inner.complete(request)
+        self._save(path, request, response)
+        return response
+
+    def _missing(self, request: Request) -> LLMError:
+        tag = request.tag or "request"
+        return LLMError(
+            f"no recorded response for {tag} (key {request.key()[:12]}...) in {self.folder}; "
+            "record it with --record"
+        )
+
+    def _load(self, path: Path) -> Response:
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+            resp = data["response"]
+            response = Response(
+                text=resp["text"],
+                model=resp.get("model", ""),
+                prompt_tokens=resp.get("prompt_tokens", 0),
+                completion_tokens=resp.get("completion_tokens", 0),
+                latency=resp.get("latency", 0.0),
+                meta={**resp.get("meta", {}), "replayed": True},
+            )
+        except (OSError, ValueError, KeyError, TypeError) as err:
+            raise LLMError(f"unreadable cassette {path}: {type(err).__name__}: {err}") from None
+        log.debug("replayed %s", path.name)
+        return response
+
+    def _save(self, path: Path, request: Request, response: Response) -> None:
+        text = json.dumps(_cassette(request, response), indent=2, ensure_ascii=False) + "\n"
+        _atomic_write(path, text)
+        log.info("recorded %s (%s)", path.name, request.tag or "untagged")
+
+
+def _cassette(request: Request, response: Response) -> dict[str, Any]:
+    return {
+        "version": CASSETTE_VERSION,
+        "key": request.key(),
+        "tag": request.tag,
+        "request": {
+            "messages": [{"role": m.role, "content": m.content} for m in request.messages],
+            "temperature": request.temperature,
+            "max_tokens": request.max_tokens,
+            "seed": request.seed,
+            "grammar": request.grammar,
+            "json_schema": _plain(request.json_schema),
+        },
+        "response": {
+            "text": response.text,
+            "model": response.model,
+            "prompt_tokens": response.prompt_tokens,
+            "completion_tokens": response.completion_tokens,
+            "latency": response.latency,
+            "meta": _plain(response.meta),
+        },
+    }
+
+
+def _atomic_write(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` via a temporary file in the same folder and ``os.replace``."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _plain(x: Any) -> Any:
+    if hasattr(x, "items"):
+        return {str(k): _plain(v) for k, v in x.items()}
+    if isinstance(x, list | tuple):
+        return [_plain(v) for v in x]
+    return x

@@ -1,0 +1,206 @@
+"""Prompting methods: from an anomaly to validated PDDL goal literals.
+
+- ``flp`` — First Look Prompting: step 1 shows the LLM only the anomaly and asks for a reasoned
+  fix (the *first look*); step 2 gives the action library, the logical state predicates, the
+  environment status and anomaly, the first look, and the output format, and asks for goals.
+- ``flp-refer`` — the same two steps, but step 2 presents the first look as a suggestion to check.
+- ``one-step`` — step 2's context without a first look.
+
+Templates live in ``llmpas/reasoning/templates/*.txt`` (``string.Template`` placeholders) and can
+be edited without touching code. Every answer is parsed and validated against the goal vocabulary
+(:mod:`llmpas.reasoning.goals`); a rejected answer is sent back with the errors, at most
+``repairs`` times. LLM output is only ever parsed.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from functools import cache
+from importlib import resources
+from string import Template
+
+from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal, Vocabulary, parse_goals
+from llmpas.reasoning.grammar import gbnf, json_schema
+from llmpas.reasoning.llm import LLM, Message, Request, Response
+
+METHODS = ("flp", "flp-refer", "one-step")
+DECODINGS = ("grammar", "schema", "none")
+
+
+@cache
+def template(name: str) -> Template:
+    text = resources.files("llmpas.reasoning").joinpath("templates", f"{name}.txt")
+    return Template(text.read_text(encoding="utf-8"))
+
+
+@dataclass(frozen=True)
+class Situation:
+    """Everything a prompt may show, already rendered as text."""
+
+    anomaly: str
+    actions: str
+    predicates: str
+    environment: str
+    task: str
+    example: str = "(and (scanned table2_left))"
+    history: str = ""  # earlier attempts that failed (for the deadlock guard's feedback)
+
+    def fields(self, first_look: str = "") -> dict[str, str]:
+        history = f"\n## Already tried without success\n{self.history}\n" if self.history else ""
+        return {
+            "anomaly": self.anomaly,
+            "actions": self.actions,
+            "predicates": self.predicates,
+            "environment": self.environment,
+            "task": self.task,
+            "example": self.example,
+            "history": history,
+            "first_look": first_look,
+        }
+
+
+@dataclass(frozen=True)
+class Exchange:
+    """One request/response pair, as the episode records it."""
+
+    tag: str
+    request: Request
+    response: Response
+
+
+@dataclass(frozen=True)
+class Proposal:
+    """The outcome of one prompting method on one anomaly."""
+
+    method: str
+    parse: GoalParse
+    exchanges: tuple[Exchange, ...]
+    repairs: int
+    first_look: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return self.parse.ok
+
+    @property
+    def goals(self) -> tuple[Literal, ...]:
+        return self.parse.goals
+
+    @property
+    def tokens(self) -> int:
+        return sum(e.response.prompt_tokens + e.response.completion_tokens for e in self.exchanges)
+
+    @property
+    def latency(self) -> float:
+        return sum(e.response.latency for e in self.exchanges)
+
+
+Check = Callable[[GoalParse], GoalParse]  # extra validation (already true, deadlock guard)
+
+
+@dataclass(frozen=True)
+class MethodConfig:
+    method: str = "flp"
+    decoding: str = "grammar"
+    repairs: int = 2
+    temperature: float = 0.0
+    seed: int | None = 0
+    max_tokens: int = 256
+
+    def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise ValueError(f"method must be one of {', '.join(METHODS)}; got {self.method!r}")
+        if self.decoding not in DECODINGS:
+            raise ValueError(f"decoding must be one of {', '.join(DECODINGS)}")
+        if self.repairs < 0:
+            raise ValueError(f"repairs must be >= 0, got {self.repairs}")
+
+
+@dataclass
+class _Conversation:
+    llm: LLM
+    config: MethodConfig
+    exchanges: list[Exchange] = field(default_factory=list)
+
+    def ask(self, tag: str, messages: list[Message], constrain: Mapping[str, object]) -> str:
+        request = Request(
+            tuple(messages),
+            temperature=self.config.temperature,
+            max_tokens=self.config.max_tokens,
+            seed=self.config.seed,
+            tag=tag,
+            **constrain,  # type: ignore[arg-type]
+        )
+        start = time.perf_counter()
+        response = self.llm.complete(request)
+        if not response.latency:
+            response = Response(
+                response.text,
+                response.model,
+                response.prompt_tokens,
+                response.completion_tokens,
+                time.perf_counter() - start,
+                response.meta,
+            )
+        self.exchanges.append(Exchange(tag, request, response))
+        return response.text
+
+
+def _system() -> Message:
+    return Message("system", template("system").substitute().strip())
+
+
+def _constraints(vocab: Vocabulary, decoding: str) -> dict[str, object]:
+    if decoding == "grammar":
+        return {"grammar": gbnf(vocab)}
+    if decoding == "schema":
+        return {"json_schema": json_schema(vocab)}
+    return {}
+
+
+def propose(
+    situation: Situation,
+    llm: LLM,
+    vocab: Vocabulary,
+    config: MethodConfig | None = None,
+    check: Check | None = None,
+) -> Proposal:
+    """Ask ``llm`` for goals with the configured method; parse, validate and repair."""
+    config = config or MethodConfig()
+    talk = _Conversation(llm, config)
+    first_look = ""
+    if config.method in ("flp", "flp-refer"):
+        step1 = template("flp_step1").substitute(situation.fields())
+        first_look = talk.ask("first-look", [_system(), Message("user", step1)], {}).strip()
+    name = {"flp": "flp_step2", "flp-refer": "flp_refer_step2", "one-step": "one_step"}
+    prompt = template(name[config.method]).substitute(situation.fields(first_look))
+    messages = [_system(), Message("user", prompt)]
+    constrain = _constraints(vocab, config.decoding)
+    parse = _parse(talk.ask("goals", messages, constrain), vocab, check)
+    repairs = 0
+    while not parse.ok and repairs < config.repairs:
+        repairs += 1
+        messages += [
+            Message("assistant", talk.exchanges[-1].response.text),
+            Message(
+                "user",
+                template("repair").substitute(errors="\n".join(f"- {e}" for e in parse.errors)),
+            ),
+        ]
+        parse = _parse(talk.ask(f"repair-{repairs}", messages, constrain), vocab, check)
+    return Proposal(config.method, parse, tuple(talk.exchanges), repairs, first_look)
+
+
+def _parse(text: str, vocab: Vocabulary, check: Check | None) -> GoalParse:
+    parse = parse_goals(text, vocab)
+    if parse.ok and check is not None:
+        parse = check(parse)
+    return parse
+
+
+def rejected(parse: GoalParse, status: GoalStatus, errors: list[str]) -> GoalParse:
+    """A copy of ``parse`` turned into a rejection (for extra checks such as the deadlock
+    guard)."""
+    return GoalParse(status, (), tuple(errors), parse.source)

@@ -1,0 +1,97 @@
+"""The closed loop: plan -> execute -> reason -> replan. The oracle (an upper bound that reads
+the simulator's truth, labelled as such) recovers every anomaly type; scripted LLMs exercise the
+deadlock guard and garbage answers. No test needs a real model or a key."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from pathlib import Path
+
+import py_trees
+import pytest
+
+from llmpas.reasoning.llm import Request, Response
+from llmpas.system import LoopConfig, run_loop
+from llmpas.system import oracle_factory as ORACLE  # the upper bound, by name
+
+
+@pytest.fixture(autouse=True)
+def clean_blackboard() -> Iterator[None]:
+    py_trees.blackboard.Blackboard.clear()
+    yield
+    py_trees.blackboard.Blackboard.clear()
+
+
+class Scripted:
+    """A test double that always gives the same answer (not an oracle: it knows nothing)."""
+
+    name = "scripted"
+
+    def __init__(self, answer: str) -> None:
+        self.answer = answer
+        self.requests: list[Request] = []
+
+    def complete(self, request: Request) -> Response:
+        self.requests.append(request)
+        return Response(self.answer, model="scripted")
+
+
+@pytest.mark.parametrize(
+    ("scenario", "where"),
+    [
+        ("object-loss-table", "bowl"),
+        ("object-loss-drawer", "bowl"),
+        ("object-loss-basket", "bowl"),
+        ("action-blocking-bowl", "bowl"),
+    ],
+)
+def test_oracle_recovers_object_loss_and_blocking(scenario: str, where: str) -> None:
+    result = run_loop(scenario, ORACLE)
+    assert result.success, result.message
+    assert any(r.proposal is not None for r in result.rounds)  # the LLM was needed
+    assert len(result.rounds) >= 2
+
+
+def test_oracle_recovers_the_blocked_microwave() -> None:
+    result = run_loop("action-blocking-microwave", ORACLE)
+    assert result.success, result.message
+    first = result.rounds[0]
+    assert first.episode is not None and first.episode.anomaly is not None
+    assert str(first.episode.anomaly.constraint) == "(not (full microwave))"
+
+
+def test_oracle_recovers_the_dirty_apple_and_the_truth_agrees() -> None:
+    result = run_loop("state-change-apple", ORACLE)
+    assert result.success, result.message
+    goals = [str(g) for r in result.rounds if r.proposal for g in r.proposal.goals]
+    assert goals == ["(cleaned apple)"]
+
+
+def test_deadlock_guard_stops_a_repeated_exhausted_search() -> None:
+    llm = Scripted("Goals: (and (scanned table1_right))")  # where the cube was not found
+    result = run_loop("object-loss-table", llm, LoopConfig(max_rounds=3))
+    assert not result.success
+    proposal = result.rounds[-1].proposal
+    assert proposal is not None and not proposal.ok
+    assert any("already searched" in e for e in proposal.parse.errors)
+    # bounded: step 1, step 2, and the configured repairs — then the loop stops
+    assert len(llm.requests) == 2 + LoopConfig().method.repairs
+
+
+def test_garbage_answers_end_with_a_clear_message() -> None:
+    llm = Scripted("import os; os.system('rm -rf /')  # run this")
+    result = run_loop("object-loss-table", llm)
+    assert not result.success
+    assert "no usable goals" in result.message
+
+
+def test_loop_record_holds_prompts_responses_and_goals(tmp_path: Path) -> None:
+    result = run_loop("state-change-apple", ORACLE)
+    data = json.loads(result.save(tmp_path / "loop.json").read_text())
+    reasoning = [r["reasoning"] for r in data["rounds"] if "reasoning" in r]
+    assert reasoning and reasoning[0]["goals"] == ["(cleaned apple)"]
+    tags = [e["tag"] for e in reasoning[0]["exchanges"]]
+    assert tags == ["first-look", "goals"]
+    step2 = reasoning[0]["exchanges"][1]["messages"][-1][1]
+    assert "First look" in step2 and "(not (dirty apple))" in step2
