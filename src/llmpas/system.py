@@ -19,6 +19,7 @@ import numpy as np
 from llmpas.execution.anomaly import AnomalyReport
 from llmpas.execution.context import Context, Recorder
 from llmpas.execution.executor import Episode, execute
+from llmpas.files import atomic_write
 from llmpas.language.logic import And, Atom, Formula, Not, atoms_of
 from llmpas.language.problem import parse_formula
 from llmpas.language.semantics import Semantics
@@ -107,11 +108,7 @@ class LoopResult:
         }
 
     def save(self, path: str | Path) -> Path:
-        path = Path(path)
-        tmp = path.with_name(path.name + ".tmp")
-        tmp.write_text(json.dumps(self.to_json(), indent=2))
-        tmp.replace(path)
-        return path
+        return atomic_write(path, json.dumps(self.to_json(), indent=2))
 
 
 LLMFactory = Callable[[HouseholdWorld, Callable[[], AnomalyReport | None]], LLM]

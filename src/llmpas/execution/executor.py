@@ -21,6 +21,7 @@ from py_trees.common import Status
 from llmpas.execution.anomaly import AnomalyReport
 from llmpas.execution.context import Context, Event
 from llmpas.execution.csubbt import Explore, SubtreeSpec, build_subtree
+from llmpas.files import atomic_write
 from llmpas.language.logic import Atom
 
 
@@ -85,11 +86,7 @@ class Episode:
 
     def save(self, path: str | Path) -> Path:
         """Write the episode as JSON (atomically: a partial file is never left behind)."""
-        path = Path(path)
-        tmp = path.with_name(path.name + ".tmp")
-        tmp.write_text(json.dumps(self.to_json(), indent=2))
-        tmp.replace(path)
-        return path
+        return atomic_write(path, json.dumps(self.to_json(), indent=2))
 
 
 def build_tree(

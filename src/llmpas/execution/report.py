@@ -11,9 +11,7 @@ from __future__ import annotations
 
 import html
 import logging
-import os
 import re
-import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,6 +20,7 @@ from llmpas.execution.anomaly import AnomalyReport
 from llmpas.execution.csubbt import SubtreeSpec
 from llmpas.execution.executor import Episode
 from llmpas.execution.export import to_btcpp_files
+from llmpas.files import atomic_write
 
 log = logging.getLogger(__name__)
 
@@ -249,24 +248,11 @@ def episode_html(episode: Episode, title: str = DEFAULT_TITLE, max_events: int =
 
 # ---------------------------------------------------------------------------------- files
 def _atomic_write(path: Path, text: str) -> Path:
-    """Write ``text`` to ``path`` through a temporary file in the same folder: a reader sees the
-    old file or the whole new one, and no temporary file survives an error."""
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.chmod(tmp, 0o644)  # mkstemp creates 0600; reports are meant to be read
-        os.replace(tmp, path)
-    finally:
-        Path(tmp).unlink(missing_ok=True)
-    return path
+    return atomic_write(path, text)
 
 
 def _save_json(episode: Episode, path: Path) -> Path:
-    try:
-        return episode.save(path)
-    finally:  # Episode.save writes <name>.tmp first; never leave it behind
-        path.with_name(path.name + ".tmp").unlink(missing_ok=True)
+    return episode.save(path)
 
 
 def save_episode(

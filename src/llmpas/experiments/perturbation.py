@@ -6,7 +6,6 @@ and once as a flat plan (every dimension gets one value: no resampling), in one 
 
 from __future__ import annotations
 
-import csv
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -17,6 +16,7 @@ import py_trees
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from llmpas.files import atomic_write, write_csv
 from llmpas.planning import PlannerConfig
 from llmpas.worlds.household.decomposition import ExplorationConfig
 from llmpas.worlds.household.run import RunConfig, run_scenario
@@ -178,15 +178,11 @@ def _write(outcomes: Sequence[Outcome], config: PerturbationConfig) -> list[Path
     out = config.out_dir
     out.mkdir(parents=True, exist_ok=True)
     path = out / "perturbation.csv"
-    tmp = path.with_suffix(".csv.tmp")
-    with tmp.open("w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(asdict(outcomes[0])))
-        w.writeheader()
-        w.writerows(asdict(o) for o in outcomes)
-    tmp.replace(path)
+    write_csv(path, [asdict(o) for o in outcomes])
     md = out / "perturbation.md"
-    md.write_text(
+    atomic_write(
+        md,
         f"Perturbation benchmark: {config.episodes} seeded episodes (seed {config.seed}), "
-        "no LLM.\n\n" + summary(outcomes)
+        "no LLM.\n\n" + summary(outcomes),
     )
     return [path, md]

@@ -7,7 +7,6 @@ the same problems (one seed per trial) and the same limits, in one run, so their
 
 from __future__ import annotations
 
-import csv
 import statistics
 from collections.abc import Iterable, Sequence
 from dataclasses import asdict, dataclass, field
@@ -17,6 +16,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from llmpas.examples import get_example
+from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning import PlannerConfig, solve
 
 MODES = ("deferred", "eager")
@@ -186,16 +186,9 @@ def write_outputs(
     out = config.out_dir
     out.mkdir(parents=True, exist_ok=True)
     csv_path = out / "planning_time.csv"
-    tmp = csv_path.with_suffix(".csv.tmp")
-    with tmp.open("w", newline="") as f:
-        names = [k for k in asdict(trials[0])] if trials else []
-        w = csv.DictWriter(f, fieldnames=names)
-        w.writeheader()
-        for t in trials:
-            w.writerow(asdict(t))
-    tmp.replace(csv_path)
+    write_csv(csv_path, [asdict(t) for t in trials])
     md_path = out / "planning_time.md"
-    md_path.write_text(markdown_table(rows, config))
+    atomic_write(md_path, markdown_table(rows, config))
     png_path = out / "planning_time.png"
     plot(trials, rows, config, png_path)
     return (csv_path, md_path, png_path)
@@ -241,7 +234,5 @@ def plot(trials: Sequence[Trial], rows: Sequence[Row], config: BenchConfig, path
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(loc="upper left", fontsize=8)
     fig.tight_layout()
-    tmp = path.with_name(path.stem + ".tmp.png")
-    fig.savefig(tmp, dpi=120)
+    save_figure(fig, path)
     plt.close(fig)
-    tmp.replace(path)
