@@ -74,6 +74,7 @@ def test_deadlock_guard_stops_a_repeated_exhausted_search() -> None:
     assert not result.success
     proposal = result.rounds[-1].proposal
     assert proposal is not None and not proposal.ok
+    assert proposal.parse.status.value == "repeated"
     assert any("already searched" in e for e in proposal.parse.errors)
     # bounded: step 1, step 2, and the configured repairs — then the loop stops
     assert len(llm.requests) == 2 + LoopConfig().method.repairs
@@ -95,3 +96,39 @@ def test_loop_record_holds_prompts_responses_and_goals(tmp_path: Path) -> None:
     assert tags == ["first-look", "goals"]
     step2 = reasoning[0]["exchanges"][1]["messages"][-1][1]
     assert "First look" in step2 and "(not (dirty apple))" in step2
+
+
+def test_unreachable_goals_are_dropped_when_others_can_be_planned() -> None:
+    # what the offline model answered once: (scanned fridge) is achievable by no action
+    llm = Scripted("Goals: (and (scanned fridge) (cleaned apple))")
+    result = run_loop("state-change-apple", llm)
+    proposal = next(r.proposal for r in result.rounds if r.proposal)
+    assert [str(g) for g in proposal.goals] == ["(cleaned apple)"]
+    assert any("dropped (scanned fridge)" in n for n in proposal.parse.notes)
+    assert result.success, result.message
+
+
+def test_only_unreachable_goals_are_sent_back_for_repair() -> None:
+    llm = Scripted("Goals: (and (scanned fridge))")
+    result = run_loop("state-change-apple", llm)
+    proposal = next(r.proposal for r in result.rounds if r.proposal)
+    assert proposal.parse.status.value == "unreachable" and proposal.repairs == 2
+    repair_prompt = proposal.exchanges[-1].request.messages[-1].content
+    assert "(scanned fridge): no sequence of the robot's actions" in repair_prompt
+
+
+CASSETTES = Path(__file__).parent / "data" / "cassettes" / "qwen1.5b"
+
+
+@pytest.mark.parametrize("scenario", ["state-change-apple"])
+def test_offline_model_recovers_from_its_recorded_answers(scenario: str) -> None:
+    """Qwen2.5-Coder-1.5B (the offline default), recorded once with `llmpas run --record`:
+    replaying its answers must reproduce the recovery (a missing or changed prompt fails)."""
+    from llmpas.reasoning.backends.replay import ReplayBackend
+
+    llm = ReplayBackend(CASSETTES, mode="replay")
+    result = run_loop(scenario, llm)
+    assert result.success, result.message
+    proposal = next(r.proposal for r in result.rounds if r.proposal)
+    assert proposal.first_look  # the first look was asked for and answered
+    assert all(e.response.model for e in proposal.exchanges)

@@ -359,7 +359,7 @@ def _llm(spec: str, record: str | None) -> Any:
         inner = LlamaCppBackend(path)
     else:
         raise CliError(f"--llm {spec!r}: expected oracle, replay:DIR, openai:MODEL or llama-cpp")
-    return ReplayBackend(Path(record), inner=inner, mode="record") if record else inner
+    return ReplayBackend(Path(record), inner=inner, mode="auto") if record else inner
 
 
 def _cmd_run(args: argparse.Namespace, console: Console) -> int:

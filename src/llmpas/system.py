@@ -182,8 +182,34 @@ class _Loop:
         if key in self.tried:
             errors.append(f"{' '.join(sorted(key))} was already tried and did not help")
         if errors:
-            return rejected(parse, GoalStatus.ALREADY_TRUE, errors)
-        return parse
+            return rejected(parse, GoalStatus.REPEATED, errors)
+        return self.reachable(parse)
+
+    def reachable(self, parse: GoalParse) -> GoalParse:
+        """Goals no plan reaches from the believed state are dropped (when others are
+        reachable) or rejected with feedback (when none is)."""
+        goals = parse.goals
+        if self.plan(And(goals))[0].solved:
+            return parse
+        ok = [g for g in goals if self.plan(And((g,)))[0].solved]
+        bad = [g for g in goals if g not in ok]
+        if not ok:
+            return rejected(
+                parse,
+                GoalStatus.UNREACHABLE,
+                [
+                    f"{g}: no sequence of the robot's actions can achieve it from the current state"
+                    for g in bad
+                ],
+            )
+        if len(ok) > 1 and not self.plan(And(tuple(ok)))[0].solved:
+            return rejected(
+                parse,
+                GoalStatus.UNREACHABLE,
+                [f"{' '.join(map(str, goals))}: cannot be achieved together"],
+            )
+        notes = (*parse.notes, *(f"dropped {g}: unreachable" for g in bad))
+        return GoalParse(GoalStatus.OK, tuple(ok), (), parse.source, notes)
 
     def remember(self, report: AnomalyReport) -> None:
         if report.constraint_name == "Detected":

@@ -184,6 +184,9 @@ class GoalStatus(enum.Enum):
     WRONG_KIND = "wrong-kind"
     ALREADY_TRUE = "already-true"
     CONTRADICTORY = "contradictory"
+    # set by the closed loop, which knows the history and has a planner
+    REPEATED = "repeated"  # repeats an exhausted search or an attempt that did not help
+    UNREACHABLE = "unreachable"  # no plan reaches it from the believed state
 
 
 Literal = Atom | Not
