@@ -120,7 +120,7 @@ def test_only_unreachable_goals_are_sent_back_for_repair() -> None:
 CASSETTES = Path(__file__).parent / "data" / "cassettes" / "qwen1.5b"
 
 
-@pytest.mark.parametrize("scenario", ["state-change-apple"])
+@pytest.mark.parametrize("scenario", ["state-change-apple", "action-blocking-microwave"])
 def test_offline_model_recovers_from_its_recorded_answers(scenario: str) -> None:
     """Qwen2.5-Coder-1.5B (the offline default), recorded once with `llmpas run --record`:
     replaying its answers must reproduce the recovery (a missing or changed prompt fails)."""
