@@ -11,15 +11,13 @@ import py_trees
 import pytest
 
 from llmpas.execution.context import Belief, Context
-from llmpas.execution.csubbt import Constraint, SubAction, SubtreeSpec
+from llmpas.execution.csubbt import SubAction, SubtreeSpec
 from llmpas.execution.executor import ExecStatus, ExecutorConfig, execute
 from llmpas.execution.space import Dimension
 from llmpas.execution.world import Perception, Robot, SkillResult
 from llmpas.language.logic import Atom
 
-from .toy import ToyWorld
-
-TABLE1 = ["t1a", "t1b", "t1c"]
+from .toy import TABLE1, ToyWorld, pick_spec
 
 
 @pytest.fixture(autouse=True)
@@ -27,48 +25,6 @@ def clean_blackboard() -> Iterator[None]:
     py_trees.blackboard.Blackboard.clear()
     yield
     py_trees.blackboard.Blackboard.clear()
-
-
-def located(v: Any, ctx: Context) -> str | None:
-    o = ctx.perception.look(v["region"])
-    ctx.belief.observations.append(o)
-    return None if o.find("cube") else f"cube not detected in {v['region']}"
-
-
-def pick_spec(
-    regions: list[str] = TABLE1, bases: tuple[str, ...] = ("q1", "q2"), max_samples: int = 40
-) -> SubtreeSpec:
-    detected = Constraint(
-        "Detected", located, lambda v: Atom("on", ("cube", "table1")), needs=("base", "region")
-    )
-    grasped = Constraint(
-        "Grasped", lambda v, c: None, lambda v: Atom("holding", ("cube",)), needs=("grasp",)
-    )
-    subs = (
-        SubAction("move_base", lambda v, c: c.robot.move_base(v["base"]), needs=("base",)),
-        SubAction("locate", lambda v, c: SkillResult.success(), constraints=(detected,)),
-        SubAction(
-            "grasp",
-            lambda v, c: c.robot.grasp("cube", v["grasp"]),
-            needs=("grasp",),
-            on_failure=grasped,
-        ),
-    )
-    dims = (
-        Dimension("base", lambda v: list(bases)),
-        Dimension("region", lambda v: list(regions)),
-        Dimension("grasp", lambda v: ["top", "forward"]),
-    )
-    return SubtreeSpec(
-        "move-and-pick cube",
-        (0, 1),
-        "move-and-pick",
-        ("cube",),
-        {},
-        dims,
-        subs,
-        max_samples=max_samples,
-    )
 
 
 def run(world: ToyWorld, *specs: SubtreeSpec, max_ticks: int = 2000) -> Any:

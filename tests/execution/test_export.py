@@ -31,7 +31,7 @@ from llmpas.execution.space import Dimension
 from llmpas.execution.world import SkillResult
 from llmpas.language.logic import Atom
 
-from .toy import ToyWorld
+from .toy import ToyWorld, pick_spec
 
 IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 
@@ -45,39 +45,6 @@ def clean_blackboard() -> Iterator[None]:
 
 def ok(v: Any, ctx: Context) -> SkillResult:
     return SkillResult.success()
-
-
-def _located(v: Any, ctx: Context) -> str | None:
-    o = ctx.perception.look(v["region"])
-    ctx.belief.observations.append(o)
-    return None if o.find("cube") else f"cube not detected in {v['region']}"
-
-
-def pick_spec(label: str = "move-and-pick cube", max_samples: int = 40) -> SubtreeSpec:
-    detected = Constraint(
-        "Detected", _located, lambda v: Atom("on", ("cube", "table1")), needs=("base", "region")
-    )
-    grasped = Constraint(
-        "Grasped", lambda v, c: None, lambda v: Atom("holding", ("cube",)), needs=("grasp",)
-    )
-    subs = (
-        SubAction("move_base", lambda v, c: c.robot.move_base(v["base"]), needs=("base",)),
-        SubAction("locate", lambda v, c: SkillResult.success(), constraints=(detected,)),
-        SubAction(
-            "grasp",
-            lambda v, c: c.robot.grasp("cube", v["grasp"]),
-            needs=("grasp",),
-            on_failure=grasped,
-        ),
-    )
-    dims = (
-        Dimension("base", lambda v: ["q1", "q2"]),
-        Dimension("region", lambda v: ["t1a", "t1b", "t1c"]),
-        Dimension("grasp", lambda v: ["top", "forward"]),
-    )
-    return SubtreeSpec(
-        label, (0, 1), "move-and-pick", ("cube",), {}, dims, subs, max_samples=max_samples
-    )
 
 
 def place_spec(label: str = "place cube table2") -> SubtreeSpec:
@@ -263,7 +230,9 @@ def odd_spec() -> SubtreeSpec:
 
 
 def test_odd_names_are_escaped_and_ids_stay_identifiers() -> None:
-    xml = to_btcpp_xml([odd_spec(), pick_spec("a b"), pick_spec("a-b"), pick_spec("plan")])
+    xml = to_btcpp_xml(
+        [odd_spec(), pick_spec(label="a b"), pick_spec(label="a-b"), pick_spec(label="plan")]
+    )
     root = ET.fromstring(xml)
     ids = [t.attrib["ID"] for t in root.iter("BehaviorTree")]
     assert all(IDENT.fullmatch(i) for i in ids) and len({i.lower() for i in ids}) == len(ids)
@@ -276,7 +245,7 @@ def test_odd_names_are_escaped_and_ids_stay_identifiers() -> None:
     assert next(root.iter("SubTree")).attrib["name"] == 'pick "big" <cube> & co'
     assert "<cube>" not in xml and "&lt;cube&gt;" in xml
     load_in_btcpp(xml)
-    files = to_btcpp_files([pick_spec("plan"), pick_spec("Plan")])
+    files = to_btcpp_files([pick_spec(label="plan"), pick_spec(label="Plan")])
     assert len(files) == 3 and len({n.lower() for n in files}) == 3  # no plan.xml clash
 
 

@@ -22,8 +22,8 @@ from llmpas.execution.report import episode_html, episode_markdown, save_episode
 from llmpas.execution.space import Dimension
 from llmpas.language.logic import Atom
 
-from .test_export import pick_spec, place_spec
-from .toy import ToyWorld
+from .test_export import place_spec
+from .toy import ToyWorld, pick_spec
 
 
 @pytest.fixture(autouse=True)

@@ -5,7 +5,13 @@ from __future__ import annotations
 
 from typing import Any
 
+from llmpas.execution.context import Context
+from llmpas.execution.csubbt import Constraint, SubAction, SubtreeSpec
+from llmpas.execution.space import Dimension
 from llmpas.execution.world import Detection, Observation, SkillResult
+from llmpas.language.logic import Atom
+
+TABLE1 = ["t1a", "t1b", "t1c"]
 
 
 class ToyWorld:
@@ -58,3 +64,42 @@ class ToyWorld:
         viewed = (target,) if target else ()
         found = tuple(Detection("cube", r, (0.0, 0.0)) for r in viewed if r == self.cube)
         return Observation(viewed, found)
+
+
+def located(v: Any, ctx: Context) -> str | None:
+    o = ctx.perception.look(v["region"])
+    ctx.belief.observations.append(o)
+    return None if o.find("cube") else f"cube not detected in {v['region']}"
+
+
+def pick_spec(
+    regions: list[str] = TABLE1,
+    bases: tuple[str, ...] = ("q1", "q2"),
+    max_samples: int = 40,
+    label: str = "move-and-pick cube",
+) -> SubtreeSpec:
+    """A move-and-pick subtree over the toy world: base poses, table regions, grasps."""
+    detected = Constraint(
+        "Detected", located, lambda v: Atom("on", ("cube", "table1")), needs=("base", "region")
+    )
+    grasped = Constraint(
+        "Grasped", lambda v, c: None, lambda v: Atom("holding", ("cube",)), needs=("grasp",)
+    )
+    subs = (
+        SubAction("move_base", lambda v, c: c.robot.move_base(v["base"]), needs=("base",)),
+        SubAction("locate", lambda v, c: SkillResult.success(), constraints=(detected,)),
+        SubAction(
+            "grasp",
+            lambda v, c: c.robot.grasp("cube", v["grasp"]),
+            needs=("grasp",),
+            on_failure=grasped,
+        ),
+    )
+    dims = (
+        Dimension("base", lambda v: list(bases)),
+        Dimension("region", lambda v: list(regions)),
+        Dimension("grasp", lambda v: ["top", "forward"]),
+    )
+    return SubtreeSpec(
+        label, (0, 1), "move-and-pick", ("cube",), {}, dims, subs, max_samples=max_samples
+    )

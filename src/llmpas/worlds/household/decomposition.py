@@ -290,6 +290,14 @@ class Builder:
         )
         return SubAction(name, run, constraints=(reach,), needs=("grasp", "base"))
 
+    def _approach(self, where: Callable[[Values], Placement]) -> tuple[SubAction, ...]:
+        """Drive to the sampled base, pre-approach above the target, approach it."""
+        return (
+            self._go("pre_approach_base", "base"),
+            self._arm("pre_approach", where, "pre"),
+            self._arm("approach", where, "at"),
+        )
+
     def _reach_check(self, p: Placement, base: BaseConf) -> str | None:
         d = ((p.x - base.x) ** 2 + (p.y - base.y) ** 2) ** 0.5
         return None if d <= self.house.layout.reach else f"{p} is {d:.2f} m from the base"
@@ -377,9 +385,7 @@ class Builder:
         return dims + self._reach_dims(obj, lambda v: v["detected"], kinds), (
             *subs,
             self._check(step),
-            self._go("pre_approach_base", "base"),
-            self._arm("pre_approach", lambda v: v["detected"], "pre"),
-            self._arm("approach", lambda v: v["detected"], "at"),
+            *self._approach(lambda v: v["detected"]),
             SubAction(
                 "grasp",
                 lambda v, c: c.robot.grasp(obj, v["grasp"]),
@@ -416,9 +422,7 @@ class Builder:
             self._go("go_look", "view_base"),
             self._look(where),
             self._check(step, spot),
-            self._go("pre_approach_base", "base"),
-            self._arm("pre_approach", lambda v: v["spot"], "pre"),
-            self._arm("approach", lambda v: v["spot"], "at"),
+            *self._approach(lambda v: v["spot"]),
             SubAction(
                 "release",
                 lambda v, c: c.robot.release(obj, v["spot"]),
