@@ -189,6 +189,10 @@ class GoalStatus(enum.Enum):
     UNREACHABLE = "unreachable"  # no plan reaches it from the believed state
 
 
+LOOP_STATUSES = frozenset({GoalStatus.REPEATED, GoalStatus.UNREACHABLE})
+"""Statuses the closed loop sets (it knows the history and has a planner); the parser never
+returns them."""
+
 Literal = Atom | Not
 """A goal literal: an :class:`Atom` of object names, or :class:`Not` wrapping one."""
 
