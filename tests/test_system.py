@@ -132,3 +132,15 @@ def test_offline_model_recovers_from_its_recorded_answers(scenario: str) -> None
     proposal = next(r.proposal for r in result.rounds if r.proposal)
     assert proposal.first_look  # the first look was asked for and answered
     assert all(e.response.model for e in proposal.exchanges)
+
+
+def test_progprompt_program_recovers_the_dirty_apple() -> None:
+    from llmpas.reasoning.methods import MethodConfig
+
+    llm = Scripted("```python\ndef recover():\n    clean('apple')\n    cool('apple')\n```")
+    result = run_loop("state-change-apple", llm, LoopConfig(method=MethodConfig("progprompt")))
+    assert result.success, result.message
+    proposal = next(r.proposal for r in result.rounds if r.proposal)
+    prompt = proposal.exchanges[0].request.messages[-1].content
+    assert "def clean(obj)" in prompt and "def recover():" in prompt
+    assert proposal.exchanges[0].request.grammar is None  # a program is free text

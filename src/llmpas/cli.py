@@ -414,7 +414,9 @@ def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         help="oracle | replay:DIR | openai:MODEL[@BASE_URL] | llama-cpp[:PATH] "
         "(default: the offline model)",
     )
-    p.add_argument("--method", default="flp", choices=("flp", "flp-refer", "one-step"))
+    p.add_argument(
+        "--method", default="flp", choices=("flp", "flp-refer", "one-step", "progprompt")
+    )
     p.add_argument("--decoding", default="grammar", choices=("grammar", "schema", "none"))
     p.add_argument("--rounds", type=int, default=3, help="LLM consultations at most")
     p.add_argument("--record", help="record the LLM's answers into this cassette folder")

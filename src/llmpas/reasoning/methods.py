@@ -24,8 +24,9 @@ from string import Template
 from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal, Vocabulary, parse_goals
 from llmpas.reasoning.grammar import gbnf, json_schema
 from llmpas.reasoning.llm import LLM, Message, Request, Response
+from llmpas.reasoning.program import Call, parse_program
 
-METHODS = ("flp", "flp-refer", "one-step")
+METHODS = ("flp", "flp-refer", "one-step", "progprompt")
 DECODINGS = ("grammar", "schema", "none")
 
 
@@ -46,6 +47,8 @@ class Situation:
     task: str
     example: str = "(and (scanned table2_left))"
     history: str = ""  # earlier attempts that failed (for the deadlock guard's feedback)
+    calls: Mapping[str, Call] = field(default_factory=dict)  # ProgPrompt: actions as functions
+    objects: tuple[str, ...] = ()
 
     def fields(self, first_look: str = "") -> dict[str, str]:
         history = f"\n## Already tried without success\n{self.history}\n" if self.history else ""
@@ -58,7 +61,18 @@ class Situation:
             "example": self.example,
             "history": history,
             "first_look": first_look,
+            "program_api": "\n".join(
+                f"# {c.signature(n)}  -> ({c.predicate} ...)" for n, c in self.calls.items()
+            ),
+            "objects": ", ".join(repr(o) for o in self.objects),
+            "environment_comment": _comment(self.environment),
+            "anomaly_comment": _comment(self.anomaly),
+            "history_comment": _comment(self.history) if self.history else "",
         }
+
+
+def _comment(text: str) -> str:
+    return "\n".join(f"# {line}" for line in text.splitlines())
 
 
 @dataclass(frozen=True)
@@ -174,11 +188,22 @@ def propose(
     if config.method in ("flp", "flp-refer"):
         step1 = template("flp_step1").substitute(situation.fields())
         first_look = talk.ask("first-look", [_system(), Message("user", step1)], {}).strip()
-    name = {"flp": "flp_step2", "flp-refer": "flp_refer_step2", "one-step": "one_step"}
+    name = {
+        "flp": "flp_step2",
+        "flp-refer": "flp_refer_step2",
+        "one-step": "one_step",
+        "progprompt": "progprompt",
+    }
     prompt = template(name[config.method]).substitute(situation.fields(first_look))
     messages = [_system(), Message("user", prompt)]
-    constrain = _constraints(vocab, config.decoding)
-    parse = _parse(talk.ask("goals", messages, constrain), vocab, check)
+    program = config.method == "progprompt"  # free text: a program cannot be grammar-bound here
+    constrain = {} if program else _constraints(vocab, config.decoding)
+    read = (
+        (lambda text: parse_program(text, situation.calls, vocab))
+        if program
+        else (lambda text: parse_goals(text, vocab))
+    )
+    parse = _parse(talk.ask("goals", messages, constrain), read, check)
     repairs = 0
     while not parse.ok and repairs < config.repairs:
         repairs += 1
@@ -189,12 +214,12 @@ def propose(
                 template("repair").substitute(errors="\n".join(f"- {e}" for e in parse.errors)),
             ),
         ]
-        parse = _parse(talk.ask(f"repair-{repairs}", messages, constrain), vocab, check)
+        parse = _parse(talk.ask(f"repair-{repairs}", messages, constrain), read, check)
     return Proposal(config.method, parse, tuple(talk.exchanges), repairs, first_look)
 
 
-def _parse(text: str, vocab: Vocabulary, check: Check | None) -> GoalParse:
-    parse = parse_goals(text, vocab)
+def _parse(text: str, read: Callable[[str], GoalParse], check: Check | None) -> GoalParse:
+    parse = read(text)
     if parse.ok and check is not None:
         parse = check(parse)
     return parse

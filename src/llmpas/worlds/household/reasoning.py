@@ -7,6 +7,7 @@ simulator's truth, and it is used only as an upper bound (never as a default).
 from __future__ import annotations
 
 from collections.abc import Callable
+from types import MappingProxyType
 
 from llmpas.execution.anomaly import AnomalyReport
 from llmpas.execution.context import Belief
@@ -14,6 +15,7 @@ from llmpas.language.logic import Atom, Not
 from llmpas.reasoning.goals import Vocabulary
 from llmpas.reasoning.llm import Request, Response
 from llmpas.reasoning.methods import Situation
+from llmpas.reasoning.program import Call
 from llmpas.worlds.household.problem import Household, believed_place
 from llmpas.worlds.household.sim import HouseholdWorld
 
@@ -43,6 +45,23 @@ PREDICATES = {
     "heated": ("?o", "object ?o has been heated"),
     "cooled": ("?o", "object ?o has been cooled"),
 }
+
+
+PROGRAM_CALLS = MappingProxyType(
+    {
+        "pick": Call(("obj",), "holding", (0,)),
+        "place": Call(("obj", "region"), "on", (0, 1)),
+        "scan_table": Call(("region",), "scanned", (0,)),
+        "scan_drawer": Call(("drawer",), "scanned", (0,)),
+        "scan_cover": Call(("cover",), "scanned", (0,)),
+        "open": Call(("container",), "open", (0,)),
+        "close": Call(("container",), "open", (0,), negated=True),
+        "clean": Call(("obj",), "cleaned", (0,)),
+        "cook": Call(("obj",), "cooked", (0,)),
+        "heat": Call(("obj",), "heated", (0,)),
+        "cool": Call(("obj",), "cooled", (0,)),
+    }
+)
 
 
 def vocabulary(house: Household) -> Vocabulary:
@@ -124,6 +143,8 @@ def situation(
         environment=environment(house, belief),
         task=f"the robot must achieve {task}",
         history=history,
+        calls=PROGRAM_CALLS,
+        objects=tuple(sorted(house.objects)),
     )
 
 
