@@ -105,3 +105,20 @@ def test_bt_export_writes_xml(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert main(["bt", "export", "nominal", "--out", str(tmp_path)]) == 0
     xml = (tmp_path / "plan.xml").read_text()
     assert 'BTCPP_format="4"' in xml
+
+
+def test_run_with_the_oracle_writes_the_loop_report(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["run", "state-change-apple", "--llm", "oracle", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "task done" in out and "(cleaned apple)" in out
+    assert (tmp_path / "loop.md").exists() and (tmp_path / "round0" / "report.html").exists()
+
+
+def test_run_with_a_missing_cassette_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["run", "state-change-apple", "--llm", f"replay:{tmp_path}"]) == 2
+    line = _error_line(capsys)
+    assert "no recorded response" in line and str(tmp_path) in line

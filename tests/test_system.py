@@ -144,3 +144,19 @@ def test_progprompt_program_recovers_the_dirty_apple() -> None:
     prompt = proposal.exchanges[0].request.messages[-1].content
     assert "def clean(obj)" in prompt and "def recover():" in prompt
     assert proposal.exchanges[0].request.grammar is None  # a program is free text
+
+
+def test_loop_report_shows_rounds_prompts_answers_and_goals(tmp_path: Path) -> None:
+    from llmpas.reasoning.backends.replay import ReplayBackend
+    from llmpas.system import save_loop
+
+    result = run_loop("state-change-apple", ReplayBackend(CASSETTES, mode="replay"))
+    files = save_loop(result, tmp_path)
+    names = {p.relative_to(tmp_path).as_posix() for p in files}
+    assert {"loop.json", "loop.md", "round0/report.md", "round1/report.md"} <= names
+    text = (tmp_path / "loop.md").read_text()
+    assert "**task done**" in text
+    assert "(not (dirty apple))" in text  # the anomaly
+    assert "#### first-look: prompt" in text and "#### goals: answer" in text
+    assert "### Reasoning (flp): (cleaned apple)" in text
+    assert not list(tmp_path.rglob("*.tmp"))

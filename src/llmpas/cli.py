@@ -397,9 +397,10 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
                 highlight=False,
             )
     if args.out:
-        out = Path(args.out)
-        out.mkdir(parents=True, exist_ok=True)
-        console.print(f"wrote {result.save(out / 'loop.json')}")
+        from llmpas.system import save_loop
+
+        files = save_loop(result, Path(args.out))
+        console.print(f"wrote {len(files)} files to {args.out} (start with loop.md)")
     verdict = "[bold green]task done[/]" if result.success else "[bold red]not done[/]"
     console.print(f"{verdict}: {result.message}")
     return 0 if result.success else 1
@@ -420,7 +421,7 @@ def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--decoding", default="grammar", choices=("grammar", "schema", "none"))
     p.add_argument("--rounds", type=int, default=3, help="LLM consultations at most")
     p.add_argument("--record", help="record the LLM's answers into this cassette folder")
-    p.add_argument("--out", help="folder for loop.json")
+    p.add_argument("--out", help="folder for loop.md, loop.json and each round's report")
     _add_planner_options(p)
     p.set_defaults(handler=_cmd_run, seed=None)
 

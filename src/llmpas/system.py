@@ -288,4 +288,75 @@ def _end(loop: _Loop, success: bool, message: str) -> LoopResult:
     return LoopResult(loop.scenario.name, success, tuple(loop.rounds), message)
 
 
-__all__ = ["LoopConfig", "LoopResult", "Round", "oracle_factory", "run_loop"]
+__all__ = [
+    "LoopConfig",
+    "LoopResult",
+    "Round",
+    "loop_markdown",
+    "oracle_factory",
+    "run_loop",
+    "save_loop",
+]
+
+
+def loop_markdown(result: LoopResult) -> str:
+    """The closed loop as a readable report: each round's goal and outcome, and for each
+    anomaly the prompts sent, the answers, the goals taken and the repairs."""
+    verdict = "task done" if result.success else "not done"
+    lines = [f"# Closed loop: {result.scenario}", "", f"**{verdict}**: {result.message}", ""]
+    for i, rnd in enumerate(result.rounds):
+        ep = rnd.episode
+        status = ep.status.value if ep else f"no plan ({rnd.plan.status.value})"
+        lines += [f"## Round {i}: `{rnd.goal}` -> {status}", ""]
+        if rnd.plan.plan is not None:
+            lines += [
+                f"Plan ({len(rnd.plan.plan.steps)} actions, {rnd.plan.stats.total_time:.2f} s):",
+                "",
+            ]
+            lines += [f"{k}. `{s}`" for k, s in enumerate(rnd.plan.plan.steps, 1)] + [""]
+        if ep is not None and ep.anomaly is not None:
+            lines += ["Anomaly:", "", f"> {ep.anomaly.describe()}", ""]
+        if rnd.proposal is not None:
+            lines += _proposal_lines(rnd.proposal)
+    return "\n".join(lines) + "\n"
+
+
+def _proposal_lines(p: Proposal) -> list[str]:
+    goals = " ".join(map(str, p.goals)) or f"none ({p.parse.status.value})"
+    lines = [
+        f"### Reasoning ({p.method}): {goals}",
+        "",
+        f"{p.repairs} repairs, {p.tokens} tokens, {p.latency:.1f} s",
+        "",
+    ]
+    notes = [f"- {e}" for e in (*p.parse.errors, *p.parse.notes)]
+    lines += [*notes, ""] if notes else []
+    for e in p.exchanges:
+        lines += [
+            f"#### {e.tag}: prompt",
+            "",
+            "```text",
+            e.request.messages[-1].content.strip(),
+            "```",
+            "",
+            f"#### {e.tag}: answer ({e.response.model})",
+            "",
+            "```text",
+            e.response.text.strip(),
+            "```",
+            "",
+        ]
+    return lines
+
+
+def save_loop(result: LoopResult, folder: str | Path) -> list[Path]:
+    """``loop.json``, ``loop.md`` and, per round, the episode report and subtree XML."""
+    from llmpas.execution.report import save_episode
+
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    files = [result.save(out / "loop.json"), atomic_write(out / "loop.md", loop_markdown(result))]
+    for i, rnd in enumerate(result.rounds):
+        if rnd.episode is not None:
+            files += save_episode(rnd.episode, out / f"round{i}", title=f"Round {i}: {rnd.goal}")
+    return files
