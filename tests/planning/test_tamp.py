@@ -212,3 +212,30 @@ def test_plan_result_json_round_trip() -> None:
     assert data["status"] == "solved"
     assert len(data["plan"]["steps"]) == len(result.plan.steps)  # type: ignore[union-attr]
     assert data["stats"]["stream_calls"] == dict(result.stats.stream_calls)
+
+
+def test_the_cheaper_of_two_supporting_instances_is_evaluated() -> None:
+    """Two streams certify the same fact; the plan needs one: the lower overhead/p_success
+    is the one evaluated."""
+    from llmpas.language.domain import parse_domain
+    from llmpas.language.streams import parse_streams
+
+    domain = parse_domain("""(define (domain d) (:predicates (Item ?x) (Ok ?x) (Done ?x))
+      (:action finish :parameters (?x) :precondition (Ok ?x) :effect (Done ?x)))""")
+    streams = parse_streams("""(define (stream s)
+      (:stream slow :inputs (?x) :domain (Item ?x) :certified (Ok ?x))
+      (:stream fast :inputs (?x) :domain (Item ?x) :certified (Ok ?x)))""")
+    for cheap, dear in (("fast", "slow"), ("slow", "fast")):
+        problem = Problem.create(
+            domain,
+            streams,
+            init=[("Item", "a")],
+            goal=[("Done", "a")],
+            implementations={
+                cheap: test(lambda x: True, overhead=1.0),
+                dear: test(lambda x: True, overhead=5.0, p_success=0.5),
+            },
+        )
+        result = solve(problem)
+        assert result.solved
+        assert dict(result.stats.stream_calls) == {cheap: 1}

@@ -40,15 +40,20 @@ class StreamInfo:
     """Per-stream planning information.
 
     ``deferred``: assumed satisfiable while planning; evaluated by the executor right before the
-    action that needs it. ``overhead`` is the expected cost of one call (it orders optimistic plans:
-    plans with fewer and cheaper unevaluated streams are preferred). ``max_outputs`` bounds how many
-    outputs one stream instance may produce during planning.
+    action that needs it. ``overhead`` (expected cost of one call) and ``p_success`` choose which
+    stream instance to evaluate when several could produce a fact an optimistic plan relies on:
+    the one with the lowest ``overhead / p_success`` (after the shallowest). ``max_outputs``
+    bounds how many outputs one stream instance may produce during planning.
     """
 
     deferred: bool = False
     overhead: float = 1.0
     p_success: float = 1.0
     max_outputs: int = 10
+
+    @property
+    def expected_cost(self) -> float:
+        return self.overhead / self.p_success
 
     def __post_init__(self) -> None:
         if not 0.0 < self.p_success <= 1.0:

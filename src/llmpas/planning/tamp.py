@@ -314,7 +314,7 @@ def _retrace(
     store = run.store
     producer = {o: i for i in opt for o in i.outputs}
     by_fact: dict[Atom, OptInstance] = {}
-    for i in sorted(opt, key=lambda i: i.level):
+    for i in sorted(opt, key=lambda i: (i.level, i.stream.info.expected_cost)):
         for a in i.certified:
             if a not in store.facts:
                 by_fact.setdefault(a, i)
