@@ -44,7 +44,7 @@ from llmpas.language.sexpr import (
     expect_list,
     expect_sym,
     keyword_sections,
-    parse_one,
+    parse_definition,
 )
 
 FULL_REQUIREMENTS = (
@@ -223,15 +223,10 @@ def read_domain(path: str | Path) -> Domain:
 
 
 def parse_domain(text: str, filename: str = "<domain>") -> Domain:
-    root = parse_one(text, filename)
-    if root.head() != "define" or len(root) < 2:
-        raise root.pos.error("expected '(define (domain NAME) ...)'")
-    header = expect_list(root[1], "'(domain NAME)'")
-    if header.head() != "domain" or len(header) != 2:
-        raise header.pos.error("expected '(domain NAME)'")
+    _, name, sections = parse_definition(text, "domain", filename)
     reader = _DomainReader(filename)
-    reader.name = expect_sym(header[1], "a domain name").text
-    for section in root.items[2:]:
+    reader.name = name
+    for section in sections:
         reader.section(expect_list(section, "a domain section"))
     return reader.build()
 

@@ -24,7 +24,7 @@ from llmpas.language.logic import (
     atoms_of,
     is_var,
 )
-from llmpas.language.sexpr import SExpr, SList, expect_list, expect_sym, parse_all, parse_one
+from llmpas.language.sexpr import SExpr, SList, expect_list, expect_sym, parse_all, parse_definition
 from llmpas.language.streams import EMPTY_STREAMS, StreamSpec, read_streams
 
 
@@ -274,19 +274,14 @@ class ProblemFile:
 
 
 def parse_problem_text(text: str, domain: Domain, filename: str = "<problem>") -> ProblemFile:
-    root = parse_one(text, filename)
-    if root.head() != "define" or len(root) < 2:
-        raise root.pos.error("expected '(define (problem NAME) ...)'")
-    header = expect_list(root[1], "'(problem NAME)'")
-    if header.head() != "problem" or len(header) != 2:
-        raise header.pos.error("expected '(problem NAME)'")
+    root, name, sections = parse_definition(text, "problem", filename)
     objects: dict[str, str] = {}
     init: list[Atom] = []
     costs: dict[FuncTerm, float] = {}
     goal: Formula | None = None
     dom_name = domain.name
     fr = reader_for_formulas(domain)
-    for item in root.items[2:]:
+    for item in sections:
         s = expect_list(item, "a problem section")
         key = s.head()
         if key is None:
@@ -309,9 +304,7 @@ def parse_problem_text(text: str, domain: Domain, filename: str = "<problem>") -
             raise s.pos.error(f"unknown problem section '{key}'")
     if goal is None:
         raise root.pos.error("problem has no ':goal'")
-    return ProblemFile(
-        expect_sym(header[1], "a name").text, dom_name, objects, tuple(init), costs, goal
-    )
+    return ProblemFile(name, dom_name, objects, tuple(init), costs, goal)
 
 
 def _read_init(items: tuple[SExpr, ...], init: list[Atom], costs: dict[FuncTerm, float]) -> None:

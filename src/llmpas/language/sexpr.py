@@ -115,6 +115,17 @@ def parse_one(text: str, filename: str = "<string>") -> SList:
     return first
 
 
+def parse_definition(text: str, kind: str, filename: str) -> tuple[SList, str, tuple[SExpr, ...]]:
+    """Read ``(define (KIND NAME) section...)``: the whole list, the name and the sections."""
+    root = parse_one(text, filename)
+    if root.head() != "define" or len(root) < 2:
+        raise root.pos.error(f"expected '(define ({kind} NAME) ...)'")
+    header = expect_list(root[1], f"'({kind} NAME)'")
+    if header.head() != kind or len(header) != 2:
+        raise header.pos.error(f"expected '({kind} NAME)'")
+    return root, expect_sym(header[1], f"a {kind} name").text, root.items[2:]
+
+
 def expect_list(e: SExpr, what: str) -> SList:
     if not isinstance(e, SList):
         raise e.pos.error(f"expected {what} in parentheses, found '{e.text}'")

@@ -19,7 +19,7 @@ from llmpas.language.sexpr import (
     expect_list,
     expect_sym,
     keyword_sections,
-    parse_one,
+    parse_definition,
 )
 
 
@@ -103,15 +103,10 @@ def read_streams(path: str | Path) -> StreamSpec:
 
 
 def parse_streams(text: str, filename: str = "<stream>") -> StreamSpec:
-    root = parse_one(text, filename)
-    if root.head() != "define" or len(root) < 2:
-        raise root.pos.error("expected '(define (stream NAME) ...)'")
-    header = expect_list(root[1], "'(stream NAME)'")
-    if header.head() != "stream" or len(header) != 2:
-        raise header.pos.error("expected '(stream NAME)'")
+    root, name, sections = parse_definition(text, "stream", filename)
     streams: list[StreamSchema] = []
     functions: list[FunctionSchema] = []
-    for item in root.items[2:]:
+    for item in sections:
         s = expect_list(item, "a stream declaration")
         head = s.head()
         if head == ":stream":
@@ -123,9 +118,7 @@ def parse_streams(text: str, filename: str = "<stream>") -> StreamSpec:
         else:
             raise s.pos.error(f"expected ':stream' or ':function', found '{head}'")
     try:
-        return StreamSpec(
-            expect_sym(header[1], "a name").text, tuple(streams), tuple(functions), filename
-        )
+        return StreamSpec(name, tuple(streams), tuple(functions), filename)
     except ModelError as e:
         raise root.pos.error(str(e).removeprefix(f"{filename}: ")) from None
 
