@@ -116,7 +116,8 @@ class Problem:
                 raise ModelError(
                     f"goal: unknown object {unknown[0]!r} in {a} (not in init or objects)"
                 )
-        values = {n: given.get(n, namer.values.get(n, n)) for n in names}
+        # sorted: a set's order depends on the string hash seed, and this order is the objects'
+        values = {n: given.get(n, namer.values.get(n, n)) for n in sorted(names)}
         bs, bf = bind(streams, implementations or {}, info)
         types = dict.fromkeys(values, "object")  # objects from Python are untyped
         return cls(

@@ -9,6 +9,7 @@ from __future__ import annotations
 from collections import defaultdict
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
+from operator import attrgetter
 
 from llmpas.language.domain import Action, Derived, Domain
 from llmpas.language.errors import ModelError
@@ -76,6 +77,9 @@ class Universe:
         return self._by_type.get(t, [])
 
 
+_args = attrgetter("args")
+
+
 class State:
     """A set of atoms with a per-predicate index; derived atoms are computed on demand."""
 
@@ -84,6 +88,10 @@ class State:
         self.index: dict[str, list[Atom]] = defaultdict(list)
         for a in self.facts:
             self.index[a.predicate].append(a)
+        # joins enumerate these lists: sort them so that the order of bindings (and so of
+        # optimistic instances, witnesses, plans) does not depend on the string hash seed
+        for atoms in self.index.values():
+            atoms.sort(key=_args)
 
     def __contains__(self, a: Atom) -> bool:
         return a in self.facts
