@@ -12,6 +12,7 @@ import py_trees
 import pytest
 
 from llmpas.reasoning.llm import Request, Response
+from llmpas.reasoning.methods import MethodConfig
 from llmpas.system import LoopConfig, run_loop
 from llmpas.system import oracle_factory as ORACLE  # the upper bound, by name
 
@@ -80,6 +81,14 @@ def test_deadlock_guard_stops_a_repeated_exhausted_search() -> None:
     assert len(llm.requests) == 2 + LoopConfig().method.repairs
 
 
+def test_a_negative_round_bound_is_refused_in_every_world() -> None:
+    from llmpas.worlds.pybullet.loop import LoopConfig as PyBulletLoopConfig
+
+    for config in (LoopConfig, PyBulletLoopConfig):
+        with pytest.raises(ValueError, match="max_rounds"):
+            config(max_rounds=-1)
+
+
 def test_garbage_answers_end_with_a_clear_message() -> None:
     llm = Scripted("import os; os.system('rm -rf /')  # run this")
     result = run_loop("object-loss-table", llm)
@@ -117,10 +126,52 @@ def test_only_unreachable_goals_are_sent_back_for_repair() -> None:
     assert "(scanned fridge): no sequence of the robot's actions" in repair_prompt
 
 
+def test_a_lost_objects_place_is_read_as_a_search_and_true_goals_are_dropped() -> None:
+    # what the offline model once answered on object loss: the cube's new place as an `on` goal
+    llm = Scripted("Goals: (and (on cube table2_right) (not (open drawer1)))")
+    result = run_loop("object-loss-table", llm)
+    proposal = next(r.proposal for r in result.rounds if r.proposal)
+    assert [str(g) for g in proposal.goals] == ["(scanned table2_right)"]
+    notes = " ".join(proposal.parse.notes)
+    assert "read (on cube table2_right) as (scanned table2_right)" in notes
+    assert "dropped (not (open drawer1)): it already holds" in notes
+    assert result.success, result.message
+
+
+def test_goals_that_all_hold_already_are_sent_back() -> None:
+    llm = Scripted("Goals: (and (not (open drawer1)))")
+    result = run_loop("object-loss-table", llm)
+    proposal = next(r.proposal for r in result.rounds if r.proposal)
+    assert proposal.parse.status.value == "already-true" and proposal.repairs == 2
+    assert not result.success
+
+
+def test_a_search_that_finds_nothing_goes_back_to_the_llm_with_the_place_marked() -> None:
+    class Sequence:
+        name = "sequence"  # test double replaying fixed answers in order (knows nothing)
+
+        def __init__(self, answers: list[str]) -> None:
+            self.answers = answers
+            self.requests: list[Request] = []
+
+        def complete(self, request: Request) -> Response:
+            self.requests.append(request)
+            return Response(self.answers[min(len(self.requests), len(self.answers)) - 1])
+
+    llm = Sequence(["Goals: (and (scanned drawer1))", "Goals: (and (scanned table2_right))"])
+    result = run_loop("object-loss-table", llm, LoopConfig(method=MethodConfig("one-step")))
+    assert result.success, result.message
+    second = llm.requests[-1].messages[-1].content
+    assert "cube was not found on drawer1, table1_left, table1_right" in second
+    assert "places not searched yet for cube: table2_left, table2_right, drawer2" in second
+
+
 CASSETTES = Path(__file__).parent / "data" / "cassettes" / "qwen1.5b"
 
 
-@pytest.mark.parametrize("scenario", ["state-change-apple", "action-blocking-microwave"])
+@pytest.mark.parametrize(
+    "scenario", ["object-loss-table", "state-change-apple", "action-blocking-microwave"]
+)
 def test_offline_model_recovers_from_its_recorded_answers(scenario: str) -> None:
     """Qwen2.5-Coder-1.5B (the offline default), recorded once with `llmpas run --record`:
     replaying its answers must reproduce the recovery (a missing or changed prompt fails)."""
@@ -144,6 +195,35 @@ def test_progprompt_program_recovers_the_dirty_apple() -> None:
     prompt = proposal.exchanges[0].request.messages[-1].content
     assert "def clean(obj)" in prompt and "def recover():" in prompt
     assert proposal.exchanges[0].request.grammar is None  # a program is free text
+
+
+def test_inner_monologue_skill_choice_recovers_the_dirty_apple() -> None:
+    from llmpas.reasoning.methods import MethodConfig
+
+    llm = Scripted(
+        'Robot thought: The apple got dirty, so I wash it.\nRobot action: clean("apple")'
+    )
+    config = LoopConfig(method=MethodConfig("inner-monologue"))
+    result = run_loop("state-change-apple", llm, config)
+    assert result.success, result.message
+    proposal = next(r.proposal for r in result.rounds if r.proposal)
+    assert [str(g) for g in proposal.goals] == ["(cleaned apple)"]
+    request = proposal.exchanges[0].request
+    prompt = request.messages[-1].content
+    assert "clean(obj) -> (cleaned obj)" in prompt and "Success: False." in prompt
+    assert "Human: " in prompt and "Scene: " in prompt
+    assert request.grammar is not None and request.grammar.startswith('root ::= "Robot thought: "')
+
+
+def test_inner_monologue_rejects_an_unknown_skill_and_feeds_it_back() -> None:
+    from llmpas.reasoning.methods import MethodConfig
+
+    llm = Scripted("Robot thought: I wash it.\nRobot action: wash_everything()")
+    result = run_loop("state-change-apple", llm, LoopConfig(method=MethodConfig("inner-monologue")))
+    assert not result.success
+    proposal = next(r.proposal for r in result.rounds if r.proposal)
+    assert proposal.repairs == 2 and not proposal.ok
+    assert "unknown action 'wash_everything'" in proposal.exchanges[-1].request.messages[-1].content
 
 
 def test_loop_report_shows_rounds_prompts_answers_and_goals(tmp_path: Path) -> None:

@@ -4,46 +4,55 @@ resume, for a bounded number of rounds.
 
 The belief carries over between rounds (what the robot saw while recovering is what lets it
 finish the task); the world's truth is never read, except by the labelled oracle.
+
+One loop serves every world: a world session implements :class:`LoopWorld` (the household:
+:class:`~llmpas.worlds.household.loop_adapter.HouseholdLoopWorld`, run by :func:`run_loop`;
+PyBullet: :mod:`llmpas.worlds.pybullet.loop`) and :func:`close_loop` runs it.
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
-from dataclasses import dataclass, field
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
-
-import numpy as np
+from typing import Any, Protocol
 
 from llmpas.execution.anomaly import AnomalyReport
-from llmpas.execution.context import Context, Recorder
-from llmpas.execution.executor import Episode, execute
+from llmpas.execution.context import Belief
+from llmpas.execution.executor import Episode
 from llmpas.files import atomic_write
+from llmpas.language.domain import Domain
 from llmpas.language.logic import And, Atom, Formula, Not, atoms_of
 from llmpas.language.problem import parse_formula
 from llmpas.language.semantics import Semantics
-from llmpas.planning import PlanResult, solve
-from llmpas.reasoning.goals import GoalParse, GoalStatus
+from llmpas.planning import PlanResult
+from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal, Vocabulary
 from llmpas.reasoning.llm import LLM
-from llmpas.reasoning.methods import MethodConfig, Proposal, propose, rejected
-from llmpas.worlds.household.decomposition import build_specs
-from llmpas.worlds.household.problem import Household, load_domain, make_problem
-from llmpas.worlds.household.reasoning import Oracle, situation, vocabulary
-from llmpas.worlds.household.run import RunConfig, belief_from, household_for, scenario_path
+from llmpas.reasoning.methods import MethodConfig, Proposal, Situation, propose, rejected
+from llmpas.worlds.household.loop_adapter import HouseholdLoopWorld
+from llmpas.worlds.household.reasoning import Oracle
+from llmpas.worlds.household.run import RunConfig, scenario_path
 from llmpas.worlds.household.scenario import Scenario, load_scenario
 from llmpas.worlds.household.sim import HouseholdWorld
 
 
 @dataclass(frozen=True)
-class LoopConfig:
+class LoopSettings:
+    """How the loop reasons, in every world (a world's ``LoopConfig`` adds how it runs)."""
+
     method: MethodConfig = field(default_factory=MethodConfig)
     max_rounds: int = 3  # LLM consultations at most
-    run: RunConfig = field(default_factory=RunConfig)
 
     def __post_init__(self) -> None:
         if self.max_rounds < 0:
             raise ValueError(f"max_rounds must be >= 0, got {self.max_rounds}")
+
+
+@dataclass(frozen=True)
+class LoopConfig(LoopSettings):
+    run: RunConfig = field(default_factory=RunConfig)
 
 
 @dataclass(frozen=True)
@@ -91,9 +100,11 @@ class Round:
 @dataclass(frozen=True)
 class LoopResult:
     scenario: str
-    success: bool
+    success: bool  # household: the robot believes the task done; PyBullet: judged in the truth
     rounds: tuple[Round, ...]
     message: str = ""
+    timings: Mapping[str, float] = field(default_factory=dict)  # seconds, where a world counts
+    llm_time: float = 0.0  # seconds spent proposing goals (the LLM and the checks of its answers)
 
     @property
     def llm_calls(self) -> int:
@@ -111,6 +122,51 @@ class LoopResult:
         return atomic_write(path, json.dumps(self.to_json(), indent=2))
 
 
+class LoopWorld(Protocol):
+    """What the closed loop needs from one scenario's world session. Its belief carries over
+    between rounds; nothing here reads the world's truth."""
+
+    @property
+    def name(self) -> str: ...  # the scenario's name
+
+    @property
+    def task(self) -> str: ...  # the task goal, as PDDL text
+
+    @property
+    def domain(self) -> Domain: ...
+
+    @property
+    def belief(self) -> Belief: ...
+
+    @property
+    def vocabulary(self) -> Vocabulary: ...  # the goal predicates and their arguments
+
+    def plan(self, goal: Formula | str, index: int) -> tuple[PlanResult, Any]:
+        """Plan ``goal`` from the current belief, in round ``index``: (result, problem)."""
+        ...
+
+    def execute(self, plan: PlanResult, problem: Any) -> Episode | None:
+        """Execute a plan found by :meth:`plan` (None: there is none)."""
+        ...
+
+    def situation(self, report: AnomalyReport, history: str) -> Situation:
+        """The prompt's text for an anomaly, with what was tried before."""
+        ...
+
+    def search_places(self) -> tuple[str, ...]:
+        """Where the robot can look for an object: the arguments of ``(scanned P)``."""
+        ...
+
+    def looked_at(self, report: AnomalyReport) -> tuple[str, ...]:
+        """The search places a failed detection (a ``Detected`` anomaly) looked at."""
+        ...
+
+    def lost(self, obj: str) -> bool:
+        """Whether the robot does not know where ``obj`` is (and does not hold it)."""
+        ...
+
+
+LLMFor = Callable[[Callable[[], AnomalyReport | None]], LLM]  # an LLM built on the anomaly
 LLMFactory = Callable[[HouseholdWorld, Callable[[], AnomalyReport | None]], LLM]
 
 
@@ -121,54 +177,97 @@ def oracle_factory(world: HouseholdWorld, report: Callable[[], AnomalyReport | N
 
 @dataclass
 class _Loop:
-    scenario: Scenario
-    house: Household
-    world: HouseholdWorld
-    config: LoopConfig
-    llm: LLM
+    world: LoopWorld
+    method: MethodConfig
+    max_rounds: int
     rounds: list[Round] = field(default_factory=list)
     report: AnomalyReport | None = None
     tried: list[frozenset[str]] = field(default_factory=list)
     searched: dict[str, set[str]] = field(default_factory=dict)
     plans: dict[tuple[str, int], tuple[PlanResult, Any]] = field(default_factory=dict)
+    llm_time: float = 0.0
 
     def __post_init__(self) -> None:
-        seed = self.scenario.seed if self.config.run.seed is None else self.config.run.seed
-        self.seed = seed
-        self.belief = belief_from(self.house, self.scenario)
-        self.ctx = Context(self.world, self.world, self.belief, np.random.default_rng([seed, 2]))
-        self.vocab = vocabulary(self.house)
+        self.sem = Semantics(self.world.domain, {}, {}, strict_costs=False)
+
+    def run(self, backend: LLM) -> LoopResult:
+        task = self.world.task
+        goal: Formula | str = task
+        text = task
+        for _ in range(2 * self.max_rounds + 1):  # the task, then per LLM round: goals + task
+            rnd = self.attempt(goal, text)
+            self.rounds.append(rnd)
+            ep = rnd.episode
+            asked = len([r for r in self.rounds if r.proposal])
+            if ep is not None and ep.succeeded:
+                if text == task or self.task_holds():
+                    return self.end(self.task_holds(), "the task is done")
+                self.searched_in(rnd)
+                goal, text = task, task  # recovered: back to the task
+                continue
+            if ep is None:
+                # after a recovery that did not settle the anomaly (a search that found
+                # nothing), the task cannot be planned yet: the same anomaly goes back to the LLM
+                report = self.report
+                if report is None or text != task or asked >= self.max_rounds:
+                    return self.end(False, f"no plan for {text}: {rnd.plan.message}")
+            else:
+                if ep.anomaly is None or asked >= self.max_rounds:
+                    return self.end(False, ep.message or "out of LLM rounds")
+                report = self.report = ep.anomaly
+                self.remember(report)
+            sit = self.world.situation(report, self.history())
+            t = time.perf_counter()
+            proposal = propose(sit, backend, self.world.vocabulary, self.method, self.check)
+            self.llm_time += time.perf_counter() - t
+            self.rounds[-1] = replace(rnd, proposal=proposal)
+            if not proposal.ok:
+                errors = "; ".join(proposal.parse.errors)
+                return self.end(False, "the LLM gave no usable goals: " + errors)
+            self.tried.append(frozenset(map(str, proposal.goals)))
+            goal, text = self.next_goal(proposal)
+        return self.end(False, f"not done after {self.max_rounds} LLM rounds")
+
+    def end(self, success: bool, message: str) -> LoopResult:
+        rounds = tuple(self.rounds)
+        return LoopResult(self.world.name, success, rounds, message, llm_time=self.llm_time)
 
     def plan(self, goal: Formula | str) -> tuple[PlanResult, Any]:
         """Plan from the current belief (memoised per round: a goal tried for feasibility is
         not planned again when it is then executed)."""
         key = (str(goal), len(self.rounds))
         if key not in self.plans:
-            problem = make_problem(
-                self.house,
-                self.belief,
-                goal,
-                np.random.default_rng([self.seed, len(self.rounds), 1]),
-            )
-            self.plans[key] = (solve(problem, self.config.run.planner), problem)
+            self.plans[key] = self.world.plan(goal, len(self.rounds))
         return self.plans[key]
 
     def attempt(self, goal: Formula | str, text: str) -> Round:
         result, problem = self.plan(goal)
-        if result.plan is None:
-            return Round(text, result, None)
-        specs = build_specs(self.house, problem, result.plan, self.config.run.exploration)
-        self.ctx.recorder = Recorder()  # each round's episode has its own timeline
-        episode = execute(specs, self.ctx, self.config.run.executor)
-        return Round(text, result, episode)
+        return Round(text, result, self.world.execute(result, problem))
 
     def task_holds(self) -> bool:
         """Whether the robot believes the task done."""
-        sem = Semantics(load_domain(), {}, {}, strict_costs=False)
-        return sem.holds(parse_formula(self.scenario.goal, sem.domain), self.belief.facts)
+        task = parse_formula(self.world.task, self.sem.domain)
+        return self.sem.holds(task, self.world.belief.facts)
+
+    def next_goal(self, proposal: Proposal) -> tuple[Formula, str]:
+        """The new goals with the task goals they do not contradict, when that can be planned;
+        else the new goals alone (the task is planned again once they are achieved)."""
+        new = list(proposal.goals)
+        task = parse_formula(self.world.task, self.sem.domain)
+        negated = {g.arg for g in new if isinstance(g, Not)}
+        keep = [a for a in atoms_of(task) if a not in negated]
+        both = And((*new, *keep))
+        if self.plan(both)[0].solved:
+            return both, str(both)
+        alone = And(tuple(new))
+        return alone, str(alone)
 
     def check(self, parse: GoalParse) -> GoalParse:
-        """Already-true goals and repeats of exhausted searches are rejected with feedback."""
+        """Already-true goals are dropped; repeats of exhausted searches and of attempts that
+        did not help, and unreachable goals, are rejected with feedback."""
+        parse = self.drop_true(self.as_searches(parse))
+        if not parse.ok:
+            return parse
         errors = []
         for g in parse.goals:
             if isinstance(g, Atom) and g.predicate == "scanned":
@@ -178,12 +277,46 @@ class _Loop:
                             f"{g}: {g.args[0]} was already searched for {obj} from "
                             "several positions without finding it; look elsewhere"
                         )
-        key = frozenset(map(str, parse.goals))
-        if key in self.tried:
-            errors.append(f"{' '.join(sorted(key))} was already tried and did not help")
         if errors:
             return rejected(parse, GoalStatus.REPEATED, errors)
-        return self.reachable(parse)
+        parse = self.reachable(parse)
+        key = frozenset(map(str, parse.goals))
+        if parse.ok and key in self.tried:
+            errors = [f"{' '.join(sorted(key))} was already tried and did not help"]
+            return rejected(parse, GoalStatus.REPEATED, errors)
+        return parse
+
+    def as_searches(self, parse: GoalParse) -> GoalParse:
+        """``(on X P)`` for a lost object X and a place P the robot can search is read as the
+        hypothesis it states: look at P, ``(scanned P)`` (no plan can put X anywhere before it
+        is found)."""
+        places = set(self.world.search_places())
+        goals: list[Literal] = []
+        notes = list(parse.notes)
+        for g in parse.goals:
+            lost = isinstance(g, Atom) and g.predicate == "on" and self.world.lost(g.args[0])
+            if lost and isinstance(g, Atom) and g.args[1] in places:
+                search = Atom("scanned", (g.args[1],))
+                notes.append(f"read {g} as {search}: where {g.args[0]} is, is unknown")
+                g = search
+            if g not in goals:
+                goals.append(g)
+        if goals == list(parse.goals):
+            return parse
+        return GoalParse(parse.status, tuple(goals), parse.errors, parse.source, tuple(notes))
+
+    def drop_true(self, parse: GoalParse) -> GoalParse:
+        """Goals the robot believes already hold are dropped (all of them: rejected)."""
+        true = [g for g in parse.goals if self.sem.holds(g, self.world.belief.facts)]
+        if not true:
+            return parse
+        if len(true) == len(parse.goals):
+            shown = ", ".join(map(str, true))
+            msg = f"every goal already holds: {shown}; propose goals that are not yet true"
+            return rejected(parse, GoalStatus.ALREADY_TRUE, [msg])
+        kept = tuple(g for g in parse.goals if g not in true)
+        notes = (*parse.notes, *(f"dropped {g}: it already holds" for g in true))
+        return GoalParse(GoalStatus.OK, kept, (), parse.source, notes)
 
     def reachable(self, parse: GoalParse) -> GoalParse:
         """Goals no plan reaches from the believed state are dropped (when others are
@@ -197,10 +330,7 @@ class _Loop:
             return rejected(
                 parse,
                 GoalStatus.UNREACHABLE,
-                [
-                    f"{g}: no sequence of the robot's actions can achieve it from the current state"
-                    for g in bad
-                ],
+                [self.why_unreachable(g) for g in bad],
             )
         if len(ok) > 1 and not self.plan(And(tuple(ok)))[0].solved:
             return rejected(
@@ -211,18 +341,49 @@ class _Loop:
         notes = (*parse.notes, *(f"dropped {g}: unreachable" for g in bad))
         return GoalParse(GoalStatus.OK, tuple(ok), (), parse.source, notes)
 
+    def why_unreachable(self, goal: Literal) -> str:
+        """The feedback for a goal no plan reaches, naming objects the robot has lost."""
+        text = f"{goal}: no sequence of the robot's actions can achieve it from the current state"
+        atom = goal.arg if isinstance(goal, Not) else goal
+        lost = [a for a in getattr(atom, "args", ()) if self.world.lost(a)]
+        if lost:
+            text += (
+                f" ({', '.join(lost)}: location unknown; find it first with a goal "
+                "(scanned PLACE) for a place not searched yet)"
+            )
+        return text
+
     def remember(self, report: AnomalyReport) -> None:
+        """A failed detection: the places it looked at are searched for its object."""
         if report.constraint_name == "Detected":
             obj = report.constraint.args[0] if isinstance(report.constraint, Atom) else ""
-            views = {v.strip("'") for v in report.explored.get("view", ())}
-            self.searched.setdefault(str(obj), set()).update(views)
+            self.searched.setdefault(str(obj), set()).update(self.world.looked_at(report))
+
+    def searched_in(self, rnd: Round) -> None:
+        """A search goal reached while an object is still lost: that place is searched."""
+        lost = [o for o in self.searched if self.world.lost(o)]
+        for goal in atoms_of(parse_formula(rnd.goal, self.sem.domain)):
+            if goal.predicate == "scanned":
+                for obj in lost:
+                    self.searched[obj].add(goal.args[0])
 
     def history(self) -> str:
-        lines = [
-            f"- {obj} was not found on {', '.join(sorted(r))}" for obj, r in self.searched.items()
-        ]
+        places = self.world.search_places()
+        lines = []
+        for obj, regions in self.searched.items():
+            lines.append(f"- {obj} was not found on {', '.join(sorted(regions))}")
+            rest = [p for p in places if p not in regions]
+            lines.append(f"- places not searched yet for {obj}: {', '.join(rest)}")
         lines += [f"- goals {' '.join(sorted(t))} did not help" for t in self.tried]
         return "\n".join(lines)
+
+
+def close_loop(world: LoopWorld, llm: LLM | LLMFor, settings: LoopSettings) -> LoopResult:
+    """Run the closed loop on ``world``. ``llm`` is a backend, or a function of the current
+    anomaly that builds one (the oracle)."""
+    loop = _Loop(world, settings.method, settings.max_rounds)
+    backend = llm if isinstance(llm, LLM) else llm(lambda: loop.report)
+    return loop.run(backend)
 
 
 def run_loop(
@@ -235,63 +396,22 @@ def run_loop(
     config = config or LoopConfig()
     if not isinstance(scenario, Scenario):
         scenario = load_scenario(scenario_path(str(scenario)))
-    house = household_for(scenario)
-    seed = scenario.seed if config.run.seed is None else config.run.seed
-    world = HouseholdWorld(house.layout, scenario, np.random.default_rng([seed, 0]))
-    holder: dict[str, AnomalyReport | None] = {"report": None}
-    backend: LLM = llm if isinstance(llm, LLM) else llm(world, lambda: holder["report"])
-    loop = _Loop(scenario, house, world, config, backend)
-    goal_text = scenario.goal
-    goal: Formula | str = scenario.goal
-    for _ in range(config.max_rounds + 1):
-        rnd = loop.attempt(goal, goal_text)
-        loop.rounds.append(rnd)
-        ep = rnd.episode
-        if ep is None:
-            return _end(loop, False, f"no plan for {goal_text}: {rnd.plan.message}")
-        if ep.succeeded:
-            if goal_text == scenario.goal or loop.task_holds():
-                return _end(loop, loop.task_holds(), "the task is done")
-            goal, goal_text = scenario.goal, scenario.goal  # recovered: back to the task
-            continue
-        if ep.anomaly is None or len([r for r in loop.rounds if r.proposal]) >= config.max_rounds:
-            return _end(loop, False, ep.message or "out of LLM rounds")
-        holder["report"] = ep.anomaly
-        loop.remember(ep.anomaly)
-        sit = situation(house, loop.belief, ep.anomaly, scenario.goal, loop.history())
-        proposal = propose(sit, backend, loop.vocab, config.method, loop.check)
-        loop.rounds[-1] = Round(rnd.goal, rnd.plan, ep, proposal)
-        if not proposal.ok:
-            return _end(
-                loop, False, "the LLM gave no usable goals: " + "; ".join(proposal.parse.errors)
-            )
-        loop.tried.append(frozenset(map(str, proposal.goals)))
-        goal, goal_text = _next_goal(loop, proposal, scenario)
-    return _end(loop, False, f"not done after {config.max_rounds} LLM rounds")
-
-
-def _next_goal(loop: _Loop, proposal: Proposal, scenario: Scenario) -> tuple[Formula, str]:
-    """The new goals with the task goals they do not contradict, when that can be planned;
-    else the new goals alone (the task is planned again once they are achieved)."""
-    new = list(proposal.goals)
-    task = parse_formula(scenario.goal, load_domain())
-    negated = {g.arg for g in new if isinstance(g, Not)}
-    keep = [a for a in atoms_of(task) if a not in negated]
-    both = And((*new, *keep))
-    if loop.plan(both)[0].solved:
-        return both, str(both)
-    alone = And(tuple(new))
-    return alone, str(alone)
-
-
-def _end(loop: _Loop, success: bool, message: str) -> LoopResult:
-    return LoopResult(loop.scenario.name, success, tuple(loop.rounds), message)
+    world = HouseholdLoopWorld.open(scenario, config.run)
+    if isinstance(llm, LLM):
+        return close_loop(world, llm, config)
+    factory = llm
+    return close_loop(world, lambda report: factory(world.sim, report), config)
 
 
 __all__ = [
+    "LLMFactory",
+    "LLMFor",
     "LoopConfig",
     "LoopResult",
+    "LoopSettings",
+    "LoopWorld",
     "Round",
+    "close_loop",
     "loop_markdown",
     "oracle_factory",
     "run_loop",

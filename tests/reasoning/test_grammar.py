@@ -206,11 +206,76 @@ def test_max_goals_must_be_positive(bad: Any) -> None:
         json_schema(TINY, bad)
 
 
+def split_reasoning(grammar: str) -> tuple[str, str, str]:
+    """(root rule, reason rule, the rest) of a grammar with a reasoning line."""
+    root, reason, rest = grammar.split("\n", 2)
+    return root, reason, rest
+
+
+def test_reasoning_line_comes_before_the_same_goals() -> None:
+    plain = gbnf(TINY, max_goals=2)
+    root, reason, rest = split_reasoning(gbnf(TINY, max_goals=2, reasoning=150))
+    assert root == 'root ::= "Reasoning: " reason "\\nGoals: " goals'
+    assert reason == "reason ::= [^\\n]{1,150}"  # one line, bounded: it cannot run on
+    assert plain == "root ::= goals\n" + rest, "the goal rules are the same with or without it"
+    rules = read_grammar(rest)
+    lits = [str(lit) for lit in all_literals(TINY)]
+    assert language(rules, ("ref", "goals")) >= {f"(and {a})" for a in lits}
+
+
+def test_answers_with_a_reasoning_line_parse_to_their_goals() -> None:
+    rules = read_grammar(split_reasoning(gbnf(HOUSEHOLD, reasoning=200))[2])
+    rng = random.Random(11)
+    for _ in range(100):
+        goals = sample(rules, ("ref", "goals"), rng)
+        text = f"Reasoning: the cube (on cube table1) is gone, so look (scanned x).\nGoals: {goals}"
+        assert parse_goals(text, HOUSEHOLD).source == parse_goals(goals, HOUSEHOLD).source
+
+
+def test_every_skill_call_the_grammar_admits_parses_to_its_effect() -> None:
+    from llmpas.reasoning.grammar import skill_gbnf
+    from llmpas.reasoning.program import parse_program
+    from llmpas.worlds.household.reasoning import PROGRAM_CALLS
+
+    grammar = skill_gbnf(PROGRAM_CALLS, HOUSEHOLD, reasoning=80)
+    head, reason, rest = grammar.split("\n", 2)
+    assert head == 'root ::= "Robot thought: " reason "\\nRobot action: " call'
+    assert reason == "reason ::= [^\\n]{1,80}"
+    rules = read_grammar(rest)
+    calls = language(rules, ("ref", "call"))
+    assert any(c.startswith('place("') for c in calls)
+    for call in calls:
+        r = parse_program(call, PROGRAM_CALLS, HOUSEHOLD)
+        assert r.status in (GoalStatus.OK, GoalStatus.CONTRADICTORY), (call, r.errors)
+        assert len(r.goals) == 1
+    assert 'close("microwave")' in calls
+    assert str(parse_program('close("microwave")', PROGRAM_CALLS, HOUSEHOLD).goals[0]) == (
+        "(not (open microwave))"
+    )
+
+
+@pytest.mark.parametrize("bad", [-1, True, 2.5])
+def test_reasoning_length_must_be_a_non_negative_integer(bad: Any) -> None:
+    with pytest.raises(ValueError, match="reasoning"):
+        gbnf(TINY, reasoning=bad)
+
+
 @pytest.mark.skipif(importlib.util.find_spec("llama_cpp") is None, reason="llama_cpp not installed")
-def test_llama_cpp_accepts_the_grammar() -> None:  # pragma: no cover - optional dependency
+@pytest.mark.parametrize("reasoning", [0, 200])
+def test_llama_cpp_accepts_the_grammar(reasoning: int) -> None:  # pragma: no cover - optional
     import llama_cpp
 
-    assert llama_cpp.LlamaGrammar.from_string(gbnf(HOUSEHOLD)) is not None
+    assert llama_cpp.LlamaGrammar.from_string(gbnf(HOUSEHOLD, reasoning=reasoning)) is not None
+
+
+@pytest.mark.skipif(importlib.util.find_spec("llama_cpp") is None, reason="llama_cpp not installed")
+def test_llama_cpp_accepts_the_skill_grammar() -> None:  # pragma: no cover - optional
+    import llama_cpp
+
+    from llmpas.reasoning.grammar import skill_gbnf
+    from llmpas.worlds.household.reasoning import PROGRAM_CALLS
+
+    assert llama_cpp.LlamaGrammar.from_string(skill_gbnf(PROGRAM_CALLS, HOUSEHOLD)) is not None
 
 
 # --- json_schema ------------------------------------------------------------------------------

@@ -96,7 +96,7 @@ class AnomalyReport:
 
     def describe(self) -> str:
         """A concise natural-language rendering for prompts."""
-        explored = "; ".join(f"{k}: {', '.join(v)}" for k, v in self.explored.items())
+        explored = "; ".join(f"{k}: {_summary(v)}" for k, v in self.explored.items())
         return (
             f"While executing {self.action}({', '.join(self.args)}), step '{self.sub_action}' "
             f"could not be completed: the constraint {self.constraint} does not hold "
@@ -104,6 +104,14 @@ class AnomalyReport:
             + (f" ({explored})" if explored else "")
             + " without success."
         )
+
+
+def _summary(values: tuple[str, ...]) -> str:
+    """Distinct names listed; poses and other structured values only counted."""
+    distinct = list(dict.fromkeys(v.strip("'") for v in values))
+    if any("(" in v for v in distinct):
+        return f"{len(distinct)} different value{'s' if len(distinct) != 1 else ''}"
+    return ", ".join(distinct)
 
 
 def _describe_observation(o: Any) -> str:

@@ -8,23 +8,37 @@ already hold).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 from llmpas.reasoning.goals import Vocabulary
+from llmpas.reasoning.program import Call
 
 
-def gbnf(vocab: Vocabulary, max_goals: int = 4) -> str:
+def gbnf(vocab: Vocabulary, max_goals: int = 4, reasoning: int = 0) -> str:
     """A GBNF grammar (root rule ``root``) admitting exactly ``(and LIT+)`` with 1..max_goals
     literals separated by single spaces; ``LIT`` is ``(pred arg...)`` or ``(not (pred arg...))``
     with each argument one of the objects allowed at its position.
 
-    Only classic GBNF is used (string literals, alternation, grouping, ``?``), no ``{m,n}``.
+    With ``reasoning > 0`` the answer starts with ``Reasoning: `` and one line of free text of at
+    most that many characters, then ``\nGoals: (and ...)``: a small model can say what it will do
+    before the goals are forced (with goals only, it tends to fall back to the task goal).
+
     Rule names are ``p<i>`` / ``p<i>-a<j>`` so they are valid whatever the predicate names.
     """
     _check_max_goals(max_goals)
+    if isinstance(reasoning, bool) or not isinstance(reasoning, int) or reasoning < 0:
+        raise ValueError(f"reasoning must be a non-negative integer, got {reasoning!r}")
     names = list(vocab.predicates)
+    goals = f'"(and " lit {_optional_more(max_goals - 1)}")"'
+    head = (
+        ['root ::= "Reasoning: " reason "\\nGoals: " goals', f"reason ::= [^\\n]{{1,{reasoning}}}"]
+        if reasoning
+        else ["root ::= goals"]
+    )
     rules = [
-        f'root ::= "(and " lit {_optional_more(max_goals - 1)}")"',
+        *head,
+        f"goals ::= {goals}",
         'lit ::= atom | "(not " atom ")"',
         "atom ::= " + " | ".join(f"p{i}" for i in range(len(names))),
     ]
@@ -36,6 +50,34 @@ def gbnf(vocab: Vocabulary, max_goals: int = 4) -> str:
         rules.append(f"p{i} ::= " + " ".join([*parts, '")"']))
         for j, objects in enumerate(allowed, 1):
             rules.append(f"p{i}-a{j} ::= " + " | ".join(_literal(o) for o in sorted(objects)))
+    return "\n".join(rules) + "\n"
+
+
+def skill_gbnf(calls: Mapping[str, Call], vocab: Vocabulary, reasoning: int = 200) -> str:
+    """A GBNF grammar for one Inner-Monologue step: ``Robot thought: <one line>`` then
+    ``Robot action: skill("arg", ...)`` calling one of ``calls`` with, at each argument, an object
+    the goal vocabulary allows where the skill's effect puts that argument."""
+    if isinstance(reasoning, bool) or not isinstance(reasoning, int) or reasoning < 1:
+        raise ValueError(f"reasoning must be a positive integer, got {reasoning!r}")
+    names = sorted(calls)
+    rules = [
+        'root ::= "Robot thought: " reason "\\nRobot action: " call',
+        f"reason ::= [^\\n]{{1,{reasoning}}}",
+        "call ::= " + " | ".join(f"c{i}" for i in range(len(names))),
+    ]
+    everything = vocab.objects
+    for i, name in enumerate(names):
+        spec = calls[name]
+        allowed = vocab.predicates.get(spec.predicate, ())
+        parts = [_literal(name + '("')]
+        for j in range(len(spec.params)):
+            if j:
+                parts.append(_literal('", "'))
+            parts.append(f"c{i}-a{j + 1}")
+            where = [k for k, pos in enumerate(spec.positions) if pos == j]
+            objects = allowed[where[0]] if where and where[0] < len(allowed) else everything
+            rules.append(f"c{i}-a{j + 1} ::= " + " | ".join(_literal(o) for o in sorted(objects)))
+        rules.insert(3 + i, f"c{i} ::= " + " ".join([*parts, _literal('")')]))
     return "\n".join(rules) + "\n"
 
 

@@ -5,6 +5,11 @@
   environment status and anomaly, the first look, and the output format, and asks for goals.
 - ``flp-refer`` — the same two steps, but step 2 presents the first look as a suggestion to check.
 - ``one-step`` — step 2's context without a first look.
+- ``progprompt`` — ProgPrompt-style: the LLM writes a Python program of robot calls, which is
+  parsed (never run) and mapped to goals.
+- ``inner-monologue`` — Inner-Monologue-style: a textual dialogue (scene, human instruction,
+  success feedback, earlier attempts) in which the LLM picks the robot's next skill; the skill's
+  effect is the goal, and the closed loop feeds its outcome back in the next round.
 
 Templates live in ``llmpas/reasoning/templates/*.txt`` (``string.Template`` placeholders) and can
 be edited without touching code. Every answer is parsed and validated against the goal vocabulary
@@ -14,6 +19,7 @@ be edited without touching code. Every answer is parsed and validated against th
 
 from __future__ import annotations
 
+import re
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -22,11 +28,11 @@ from importlib import resources
 from string import Template
 
 from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal, Vocabulary, parse_goals
-from llmpas.reasoning.grammar import gbnf, json_schema
+from llmpas.reasoning.grammar import gbnf, json_schema, skill_gbnf
 from llmpas.reasoning.llm import LLM, Message, Request, Response
 from llmpas.reasoning.program import Call, parse_program
 
-METHODS = ("flp", "flp-refer", "one-step", "progprompt")
+METHODS = ("flp", "flp-refer", "one-step", "progprompt", "inner-monologue")
 DECODINGS = ("grammar", "schema", "none")
 
 
@@ -45,7 +51,8 @@ class Situation:
     predicates: str
     environment: str
     task: str
-    example: str = "(and (scanned table2_left))"
+    example: str = "(and (inspected door1))"  # format only: from another domain
+    example_call: str = 'inspect("door1")'  # the same, as an Inner-Monologue skill call
     history: str = ""  # earlier attempts that failed (for the deadlock guard's feedback)
     calls: Mapping[str, Call] = field(default_factory=dict)  # ProgPrompt: actions as functions
     objects: tuple[str, ...] = ()
@@ -64,11 +71,19 @@ class Situation:
             "program_api": "\n".join(
                 f"# {c.signature(n)}  -> ({c.predicate} ...)" for n, c in self.calls.items()
             ),
+            "skills": "\n".join(f"- {_skill(n, c)}" for n, c in self.calls.items()),
+            "dialogue": f"Earlier attempts:\n{self.history}\n" if self.history else "",
+            "example_call": self.example_call,
             "objects": ", ".join(repr(o) for o in self.objects),
             "environment_comment": _comment(self.environment),
             "anomaly_comment": _comment(self.anomaly),
             "history_comment": _comment(self.history) if self.history else "",
         }
+
+
+def _skill(name: str, call: Call) -> str:
+    fact = f"({call.predicate} {' '.join(call.params[i] for i in call.positions)})"
+    return f"{name}({', '.join(call.params)}) -> {'not ' if call.negated else ''}{fact}"
 
 
 def _comment(text: str) -> str:
@@ -122,6 +137,8 @@ class MethodConfig:
     temperature: float = 0.0
     seed: int | None = 0
     max_tokens: int = 256
+    reasoning: int = 200  # characters of one reasoning line before the goals (0: goals only)
+    repair_temperature: float = 0.7  # repairs sample: a greedy model would repeat its answer
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -130,6 +147,10 @@ class MethodConfig:
             raise ValueError(f"decoding must be one of {', '.join(DECODINGS)}")
         if self.repairs < 0:
             raise ValueError(f"repairs must be >= 0, got {self.repairs}")
+        if not 0 <= self.repair_temperature <= 2:
+            raise ValueError(f"repair_temperature must be in [0, 2], got {self.repair_temperature}")
+        if self.reasoning < 0:
+            raise ValueError(f"reasoning must be >= 0, got {self.reasoning}")
 
 
 @dataclass
@@ -138,12 +159,15 @@ class _Conversation:
     config: MethodConfig
     exchanges: list[Exchange] = field(default_factory=list)
 
-    def ask(self, tag: str, messages: list[Message], constrain: Mapping[str, object]) -> str:
+    def ask(
+        self, tag: str, messages: list[Message], constrain: Mapping[str, object], repair: int = 0
+    ) -> str:
+        seed = self.config.seed
         request = Request(
             tuple(messages),
-            temperature=self.config.temperature,
+            temperature=self.config.repair_temperature if repair else self.config.temperature,
             max_tokens=self.config.max_tokens,
-            seed=self.config.seed,
+            seed=seed + repair if seed is not None and repair else seed,
             tag=tag,
             **constrain,  # type: ignore[arg-type]
         )
@@ -166,12 +190,46 @@ def _system() -> Message:
     return Message("system", template("system").substitute().strip())
 
 
-def _constraints(vocab: Vocabulary, decoding: str) -> dict[str, object]:
-    if decoding == "grammar":
-        return {"grammar": gbnf(vocab)}
-    if decoding == "schema":
+def _constraints(vocab: Vocabulary, config: MethodConfig) -> dict[str, object]:
+    if config.decoding == "grammar":
+        return {"grammar": gbnf(vocab, reasoning=config.reasoning)}
+    if config.decoding == "schema":
         return {"json_schema": json_schema(vocab)}
     return {}
+
+
+_TEMPLATES = {
+    "flp": "flp_step2",
+    "flp-refer": "flp_refer_step2",
+    "one-step": "one_step",
+    "progprompt": "progprompt",
+    "inner-monologue": "inner_monologue",
+}
+_ACTION = re.compile(r"Robot action:\s*(.*)")
+
+
+def _reader(
+    situation: Situation, vocab: Vocabulary, config: MethodConfig
+) -> tuple[Callable[[str], GoalParse], dict[str, object]]:
+    """How the method's answers are read, and how decoding is constrained."""
+    if config.method == "progprompt":  # free text: a program cannot be grammar-bound here
+        return (lambda text: parse_program(text, situation.calls, vocab)), {}
+    if config.method == "inner-monologue":
+        grammar = config.decoding == "grammar" and situation.calls
+        constrain: dict[str, object] = (
+            {"grammar": skill_gbnf(situation.calls, vocab, max(config.reasoning, 1))}
+            if grammar
+            else {}
+        )
+        return (lambda text: parse_program(_action(text), situation.calls, vocab)), constrain
+    return (lambda text: parse_goals(text, vocab)), _constraints(vocab, config)
+
+
+def _action(text: str) -> str:
+    """The one skill call of an Inner-Monologue answer (the line after the last
+    ``Robot action:``; the whole text when there is no such line)."""
+    found = _ACTION.findall(text)
+    return found[-1] if found else text
 
 
 def propose(
@@ -188,21 +246,9 @@ def propose(
     if config.method in ("flp", "flp-refer"):
         step1 = template("flp_step1").substitute(situation.fields())
         first_look = talk.ask("first-look", [_system(), Message("user", step1)], {}).strip()
-    name = {
-        "flp": "flp_step2",
-        "flp-refer": "flp_refer_step2",
-        "one-step": "one_step",
-        "progprompt": "progprompt",
-    }
-    prompt = template(name[config.method]).substitute(situation.fields(first_look))
+    prompt = template(_TEMPLATES[config.method]).substitute(situation.fields(first_look))
     messages = [_system(), Message("user", prompt)]
-    program = config.method == "progprompt"  # free text: a program cannot be grammar-bound here
-    constrain = {} if program else _constraints(vocab, config.decoding)
-    read = (
-        (lambda text: parse_program(text, situation.calls, vocab))
-        if program
-        else (lambda text: parse_goals(text, vocab))
-    )
+    read, constrain = _reader(situation, vocab, config)
     parse = _parse(talk.ask("goals", messages, constrain), read, check)
     repairs = 0
     while not parse.ok and repairs < config.repairs:
@@ -214,7 +260,7 @@ def propose(
                 template("repair").substitute(errors="\n".join(f"- {e}" for e in parse.errors)),
             ),
         ]
-        parse = _parse(talk.ask(f"repair-{repairs}", messages, constrain), read, check)
+        parse = _parse(talk.ask(f"repair-{repairs}", messages, constrain, repairs), read, check)
     return Proposal(config.method, parse, tuple(talk.exchanges), repairs, first_look)
 
 

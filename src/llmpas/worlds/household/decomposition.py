@@ -353,7 +353,7 @@ class Builder:
             d = v["observed"].find(obj)
             where = getattr(d.pose, "region", "") if d is not None else ""
             if d is None or furniture_of(self.house, where) != furniture:
-                return f"{obj} not detected on {furniture} (looked at {v['view']})"
+                return f"{obj} not seen when looking at {v['view']}"
             ctx.perceive("detected", d.pose)
             return None
 

@@ -47,12 +47,23 @@ def load_streams() -> StreamSpec:
     return parse_streams(_text("stream.pddl"), "household/stream.pddl")
 
 
+def is_drawer(region: str) -> bool:
+    return region.startswith("drawer")
+
+
 @dataclass(frozen=True)
 class Household:
     """What the robot knows that does not change: the layout and the objects' shapes."""
 
     layout: Layout
     objects: Mapping[str, ObjectSpec]
+
+    def search_places(self) -> tuple[str, ...]:
+        """Where the robot can look for an object: table parts, drawers, covers."""
+        regions = [
+            r.name for r in self.layout.regions.values() if r.kind == "surface" or is_drawer(r.name)
+        ]
+        return (*regions, *sorted(o for o, s in self.objects.items() if s.cover))
 
     def static_facts(self) -> set[Atom]:
         facts: set[Atom] = set()
@@ -61,7 +72,7 @@ class Household:
             facts.add(Atom.of("Region", r.name))
             if r.kind == "surface":
                 facts.add(Atom.of("Surface", r.name))
-            if r.name.startswith("drawer"):
+            if is_drawer(r.name):
                 facts.add(Atom.of("Drawer", r.name))
             if r.openable:
                 facts.add(Atom.of("Openable", r.name))

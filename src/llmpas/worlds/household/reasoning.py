@@ -38,7 +38,11 @@ ACTIONS = {
 PREDICATES = {
     "on": ("?o ?r", "object ?o rests on or in region ?r (a table region, drawer, appliance, bowl)"),
     "holding": ("?o", "the robot holds object ?o"),
-    "scanned": ("?r", "the robot has looked at region or cover ?r"),
+    "scanned": (
+        "?r",
+        "the robot has looked at region or cover ?r (a goal to search for an object whose "
+        "location is unknown)",
+    ),
     "open": ("?r", "drawer / microwave / fridge ?r is open"),
     "cleaned": ("?o", "object ?o has been cleaned"),
     "cooked": ("?o", "object ?o has been cooked"),

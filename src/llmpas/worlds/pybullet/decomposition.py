@@ -1,0 +1,419 @@
+"""From a plan over the household domain to CSubBT specs for the PyBullet world.
+
+As in the household world, a ``move_base`` step is merged into the action that follows it
+("move-and-pick"): the subtree searches for the object (drives to base poses facing the table and
+looks with the mast camera — the search behaviour), checks the step's precondition against the
+believed state, chooses its grasp and base pose with the deferred ``inverse-kinematics`` stream
+evaluated on the *detected* pose, pre-approaches, corrects the detected pose with the wrist camera,
+approaches and grasps (or releases).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import Any
+
+from llmpas.execution.anomaly import Failure
+from llmpas.execution.context import Belief, Context
+from llmpas.execution.csubbt import Constraint, SubAction, SubtreeSpec, Values
+from llmpas.execution.space import Dimension
+from llmpas.execution.world import Observation, SkillResult
+from llmpas.language.logic import Atom, Formula, Substitution, effect_atoms
+from llmpas.language.problem import Problem
+from llmpas.language.semantics import Semantics
+from llmpas.planning.result import Plan, PlanStep
+from llmpas.worlds.household.decomposition import failing_literal
+from llmpas.worlds.pybullet.problem import believe_at, believed_pose
+from llmpas.worlds.pybullet.scene import TABLE_TOP, SceneConfig
+from llmpas.worlds.pybullet.values import ArmGoal, BaseConf, BasePath, Grasp, ObjectPose
+
+OK = SkillResult.success()
+MERGED = ("pick", "place", "scan_table")
+_ADOPTED = frozenset({"pose", "supported", "grasp"})
+Recipe = tuple[tuple[Dimension, ...], tuple[SubAction, ...]]
+
+
+@dataclass(frozen=True)
+class ExplorationConfig:
+    view_bases: int = 3  # base poses to look from (the search around the table)
+    grasps: int = 2
+    base_samples: int = 3
+    max_samples: int = 40
+    drop: float = 0.02  # release this far above the resting height
+    # how to look for an object at each base pose of the search: the mast, then the raised arm
+    cameras: tuple[str, ...] = ("mast", "arm")
+
+    def __post_init__(self) -> None:
+        if not self.cameras or not set(self.cameras) <= {"mast", "arm"}:
+            raise ValueError(f"cameras must be a non-empty subset of mast/arm: {self.cameras}")
+        if min(self.view_bases, self.grasps, self.base_samples, self.max_samples) < 1:
+            raise ValueError("exploration budgets must be >= 1")
+        if self.drop < 0:
+            raise ValueError("drop must be >= 0")
+
+
+def table_of(config: SceneConfig, belief: Belief, region: str) -> str:
+    """The table a region is on: itself, or the table a bowl is believed on."""
+    if region in {t.name for t in config.tables}:
+        return region
+    at = believed_pose(belief, region)
+    return at.region if at is not None and at.region != region else region
+
+
+def observe(belief: Belief, config: SceneConfig, obs: Observation) -> None:
+    """Update the belief from one look: an object seen where it was believed keeps its pose name
+    with the seen position; one seen elsewhere gets a new pose."""
+    belief.observations.append(obs)
+    for d in obs.detections:
+        if not isinstance(d.pose, ObjectPose) or belief.matching("atgrasp", d.obj):
+            continue
+        old = believed_pose(belief, d.obj)
+        if old is not None and old.region == d.pose.region:
+            for a in belief.matching("atpose", d.obj):
+                belief.values[a.args[1]] = d.pose
+            continue
+        believe_at(belief, d.obj, d.pose)
+
+
+class Builder:
+    def __init__(
+        self, config: SceneConfig, problem: Problem, plan: Plan, exploration: ExplorationConfig
+    ) -> None:
+        self.config = config
+        self.problem = problem
+        self.plan = plan
+        self.x = exploration
+        self.sem = Semantics(problem.domain, {}, {}, strict_costs=False)
+
+    # ------------------------------------------------------------------ specs
+
+    def specs(self) -> list[SubtreeSpec]:
+        steps = list(self.plan.steps)
+        out: list[SubtreeSpec] = []
+        i = 0
+        while i < len(steps):
+            merge = (
+                steps[i].action == "move_base"
+                and i + 1 < len(steps)
+                and steps[i + 1].action in MERGED
+            )
+            idx = (i, i + 1) if merge else (i,)
+            out.append(self.spec(idx, steps[idx[-1]], merge))
+            i += len(idx)
+        return out
+
+    def spec(self, idx: tuple[int, ...], step: PlanStep, merged: bool) -> SubtreeSpec:
+        recipes: dict[str, Callable[[PlanStep], Recipe]] = {
+            "pick": self.pick,
+            "place": self.place,
+            "scan_table": self.scan,
+            "move_base": self.move,
+        }
+        dims, subs = recipes.get(step.action, self.unsupported)(step)
+        prefix = "move-and-" if merged else ""
+        shown = [a if not a.startswith("#") else "?" for a in step.args]
+        steps = [self.plan.steps[k] for k in idx]
+        return SubtreeSpec(
+            label=f"{prefix}{step.action} {' '.join(shown)}".strip(),
+            steps=idx,
+            action=prefix + step.action,
+            args=tuple(shown),
+            fixed={},
+            dims=dims,
+            sub_actions=subs,
+            max_samples=self.x.max_samples,
+            on_success=self._effects(steps),
+            on_failure=self._forget(step),
+            atoms=self._achieves(steps),
+        )
+
+    # ------------------------------------------------------------------ pieces
+
+    def _stream(self, name: str, inputs: tuple[Any, ...]) -> Iterator[Any]:
+        for out in self.problem.bound_streams[name].outputs(inputs):
+            yield out[0]
+
+    def _precondition(self, step: PlanStep) -> Constraint:
+        last: dict[str, Formula] = {}
+
+        def check(v: Values, ctx: Context) -> str | None:
+            lit = failing_literal(self.sem, ctx.belief, step, self.problem, self.plan)
+            if lit is None:
+                return None
+            last["lit"] = lit
+            return f"{lit} does not hold in what the robot perceives"
+
+        def atom(v: Values) -> Any:
+            return last.get("lit", Atom("precondition", (step.action,)))
+
+        return Constraint("Precondition", check, atom)
+
+    def _view_dim(self, region: str) -> Dimension:
+        def sample(v: Values) -> Iterator[BaseConf]:
+            yield from self._stream("sample-view", (region,))
+
+        return Dimension("view_base", sample, budget=self.x.view_bases, describe=str)
+
+    def _go(self, name: str, key: str) -> SubAction:
+        def plan(v: Values, ctx: Context) -> BasePath | None:
+            here = ctx.robot.base_conf()
+            target: BaseConf = v[key]
+            return next(self._stream("plan-base-motion", (here, target)), None)
+
+        def check(v: Values, ctx: Context) -> str | None:
+            here = ctx.robot.base_conf()
+            if isinstance(here, BaseConf) and here.distance(v[key]) < 1e-3:
+                return None
+            path = plan(v, ctx)
+            if path is None:
+                return f"no collision-free drive to {v[key]}"
+            ctx.perceive(f"{name}_path", path)
+            return None
+
+        def run(v: Values, ctx: Context) -> SkillResult:
+            here = ctx.robot.base_conf()
+            if isinstance(here, BaseConf) and here.distance(v[key]) < 1e-3:
+                return SkillResult.success("already there")
+            path = v.get(f"{name}_path")
+            drive = getattr(ctx.robot, "drive", None)
+            if isinstance(path, BasePath) and drive is not None:
+                result: SkillResult = drive(path)
+                return result
+            return ctx.robot.move_base(v[key])
+
+        motion = Constraint(
+            "BaseMotion",
+            check,
+            lambda v: Atom("basemotion", ("here", str(v.get(key)))),
+            needs=(key,),
+        )
+        return SubAction(name, run, constraints=(motion,), needs=(key,))
+
+    def _look(self, region: Callable[[Values, Context], str], search: bool = False) -> SubAction:
+        """Look at the region with the mast camera, or (``search``: the ``camera`` dimension
+        says ``arm``) with the wrist camera raised on the arm."""
+
+        def run(v: Values, ctx: Context) -> SkillResult:
+            r = region(v, ctx)
+            arm_look = getattr(ctx.robot, "look_with_arm", None)
+            if search and v.get("camera") == "arm" and arm_look is not None:
+                obs: Observation = arm_look(r)
+            else:
+                obs = ctx.perception.look(r)
+            observe(ctx.belief, self.config, obs)
+            ctx.perceive("observed", obs)
+            return SkillResult.success(f"looked at {r}: {len(obs.detections)} detections")
+
+        needs = ("view_base", "camera") if search else ("view_base",)
+        return SubAction("look", run, needs=needs)
+
+    def _reach_dims(
+        self, obj: str, where: Callable[[Values], ObjectPose], kinds: list[str]
+    ) -> tuple[Dimension, ...]:
+        grasps = [Grasp(k) for k in kinds]
+
+        def bases(v: Values) -> Iterator[BaseConf]:
+            yield from self._stream("inverse-kinematics", (obj, where(v), v["grasp"]))
+
+        return (
+            Dimension(
+                "grasp", lambda v: grasps, budget=min(self.x.grasps, len(grasps)), describe=str
+            ),
+            Dimension("base", bases, budget=self.x.base_samples, describe=str),
+        )
+
+    def _arm(
+        self, name: str, where: Callable[[Values], ObjectPose], phase: str, obj: str
+    ) -> SubAction:
+        def run(v: Values, ctx: Context) -> SkillResult:
+            return ctx.robot.move_arm(ArmGoal(where(v), v["grasp"], phase, obj))
+
+        reach = Constraint(
+            "Kin",
+            lambda v, c: None,
+            lambda v: Atom("kin", ("arm", str(where(v)), str(v.get("grasp")))),
+            needs=("grasp", "base"),
+        )
+        return SubAction(name, run, needs=("grasp", "base"), on_failure=reach)
+
+    # ------------------------------------------------------------------ recipes
+
+    def pick(self, step: PlanStep) -> Recipe:
+        obj, region = step.args[0], step.args[2]
+
+        def look_region(v: Values, ctx: Context) -> str:
+            return table_of(self.config, ctx.belief, region)
+
+        def detected(v: Values, ctx: Context) -> str | None:
+            d = v["observed"].find(obj)
+            table = table_of(self.config, ctx.belief, region)
+            if d is None or table_of(self.config, ctx.belief, d.region) != table:
+                return f"{obj} not detected on {table}"
+            ctx.perceive("detected", d.pose)
+            return None
+
+        def correct(v: Values, ctx: Context) -> SkillResult:
+            fresh = getattr(ctx.robot, "wrist_detect", None)
+            pose = fresh(obj) if fresh is not None else None
+            if isinstance(pose, ObjectPose):
+                ctx.perceive("detected", pose)
+                return SkillResult.success(f"corrected to {pose}")
+            return SkillResult.success("not seen by the wrist camera; keeping the pose")
+
+        found = Constraint(
+            "Detected",
+            detected,
+            lambda v: Atom("on", (obj, region)),
+            needs=("view_base", "camera"),
+        )
+        grasped = Constraint(
+            "Grasped", lambda v, c: None, lambda v: Atom("holding", (obj,)), needs=("grasp",)
+        )
+        cameras = Dimension(
+            "camera", lambda v: list(self.x.cameras), budget=len(self.x.cameras), describe=str
+        )
+        dims = (
+            self._view_dim(region),
+            cameras,
+            *self._reach_dims(obj, lambda v: v["detected"], ["top", "forward"]),
+        )
+        return dims, (
+            self._go("go_look", "view_base"),
+            self._look(look_region, search=True),
+            SubAction("locate", lambda v, c: OK, constraints=(found,)),
+            SubAction("check", lambda v, c: OK, constraints=(self._precondition(step),)),
+            self._go("pre_approach_base", "base"),
+            self._arm("pre_approach", lambda v: v["detected"], "pre", obj),
+            SubAction("correct", correct),
+            self._arm("approach", lambda v: v["detected"], "at", obj),
+            SubAction(
+                "grasp",
+                lambda v, c: c.robot.grasp(obj, v["grasp"]),
+                needs=("grasp",),
+                on_failure=grasped,
+            ),
+        )
+
+    def place(self, step: PlanStep) -> Recipe:
+        obj, p, region = step.args[0], step.args[1], step.args[2]
+        bowls = {o.name for o in self.config.objects if o.kind == "bowl"}
+        planned = self.plan.objects.get(p) or self.problem.objects.get(p)
+        size = self.config.obj(obj).size
+
+        def look_region(v: Values, ctx: Context) -> str:
+            return table_of(self.config, ctx.belief, region)
+
+        def find_spot(v: Values, ctx: Context) -> str | None:
+            if region in bowls:
+                at = believed_pose(ctx.belief, region)
+                if at is None:
+                    return f"{region} is nowhere the robot knows"
+                z = TABLE_TOP + 0.01 + size / 2 + self.x.drop
+                ctx.perceive("spot", ObjectPose(region, at.x, at.y, z))
+                return None
+            if not isinstance(planned, ObjectPose):
+                return f"no placement for {obj} on {region}"
+            ctx.perceive("spot", ObjectPose(region, planned.x, planned.y, planned.z + self.x.drop))
+            return None
+
+        spot = Constraint("Located", find_spot, lambda v: Atom("region", (region,)))
+        released = Constraint(
+            "Released", lambda v, c: None, lambda v: Atom("on", (obj, region)), needs=("base",)
+        )
+        dims = (self._view_dim(region), *self._reach_dims(obj, lambda v: v["spot"], ["top"]))
+        return dims, (
+            self._go("go_look", "view_base"),
+            self._look(look_region),
+            SubAction("check", lambda v, c: OK, constraints=(spot, self._precondition(step))),
+            self._go("pre_approach_base", "base"),
+            self._arm("pre_approach", lambda v: v["spot"], "pre", obj),
+            self._arm("approach", lambda v: v["spot"], "at", obj),
+            SubAction(
+                "release",
+                lambda v, c: c.robot.release(obj, v["spot"]),
+                needs=("base",),
+                on_failure=released,
+            ),
+        )
+
+    def scan(self, step: PlanStep) -> Recipe:
+        region = step.args[0]
+        return (self._view_dim(region),), (
+            self._go("go_look", "view_base"),
+            SubAction("check", lambda v, c: OK, constraints=(self._precondition(step),)),
+            self._look(lambda v, c: region),
+        )
+
+    def move(self, step: PlanStep) -> Recipe:
+        q2 = step.args[1]
+
+        def target(v: Values) -> Iterator[BaseConf]:
+            value = self.plan.objects.get(q2) or self.problem.objects.get(q2)
+            if isinstance(value, BaseConf):
+                yield value
+
+        return (Dimension("base", target, budget=1, describe=str),), (
+            self._go("move_base", "base"),
+        )
+
+    def unsupported(self, step: PlanStep) -> Recipe:
+        def run(v: Values, c: Context) -> SkillResult:
+            return SkillResult.failure(f"{step.action} is not supported in the PyBullet world")
+
+        return (), (SubAction(step.action, run),)
+
+    # ------------------------------------------------------------------ belief updates
+
+    def _achieves(self, steps: list[PlanStep]) -> tuple[Atom, ...]:
+        out: list[Atom] = []
+        for st in steps:
+            action = self.problem.domain.action(st.action)
+            sub = Substitution(dict(zip((p.name for p in action.params), st.args, strict=True)))
+            out += [sub.atom(a) for add, a in effect_atoms(action.effects) if add]
+        return tuple(out)
+
+    def _effects(self, steps: list[PlanStep]) -> Callable[[Values, Context], None]:
+        def apply(v: Values, ctx: Context) -> None:
+            for st in steps:
+                for ref in st.deferred:
+                    if ref.stream in ("inverse-kinematics", "sample-view"):
+                        base = v.get("base", v.get("view_base"))
+                        ctx.belief.values.update(dict.fromkeys(ref.outputs, base))
+                        ctx.belief.facts |= {Atom("bconf", (o,)) for o in ref.outputs}
+                self._adopt(st, ctx)
+                action = self.problem.domain.action(st.action)
+                state = self.sem.state(ctx.belief.facts | self.plan.certified)
+                facts, _ = self.sem.apply(action, st.args, state)
+                changed = {a.predicate for _, a in effect_atoms(action.effects)}
+                keep = {a for a in ctx.belief.facts if a.predicate not in changed}
+                ctx.belief.facts = keep | {a for a in facts if a.predicate in changed}
+                if st.action == "place" and isinstance(v.get("spot"), ObjectPose):
+                    spot: ObjectPose = v["spot"]
+                    rest = ObjectPose(spot.region, spot.x, spot.y, spot.z - self.x.drop)
+                    ctx.belief.values[st.args[1]] = rest
+
+        return apply
+
+    def _adopt(self, st: PlanStep, ctx: Context) -> None:
+        for name in st.args:
+            value = self.plan.objects.get(name)
+            if value is None or name in ctx.belief.values or name in self.problem.objects:
+                continue
+            ctx.belief.values[name] = value
+            ctx.belief.facts |= {
+                a for a in self.plan.certified if a.predicate in _ADOPTED and name in a.args
+            }
+
+    def _forget(self, step: PlanStep) -> Callable[[Failure, Context], None]:
+        def forget(failure: Failure, ctx: Context) -> None:
+            if failure.constraint.name == "Detected" and step.args:
+                believe_at(ctx.belief, step.args[0], None)
+
+        return forget
+
+
+def build_specs(
+    config: SceneConfig, problem: Problem, plan: Plan, exploration: ExplorationConfig | None = None
+) -> list[SubtreeSpec]:
+    return Builder(config, problem, plan, exploration or ExplorationConfig()).specs()

@@ -1,0 +1,118 @@
+"""The robot's side of the PyBullet world: static knowledge, believed state, planning problems.
+
+The domain and stream declarations are the household ones (``household/domain.pddl`` and
+``household/stream.pddl``), unchanged: only the stream implementations differ (real geometry).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection, Mapping
+from typing import Any
+
+import numpy as np
+
+from llmpas.execution.context import Belief
+from llmpas.language.logic import Atom, Formula
+from llmpas.language.problem import Problem
+from llmpas.worlds.household.problem import load_domain, load_streams
+from llmpas.worlds.pybullet.scene import SceneConfig
+from llmpas.worlds.pybullet.streams import DEFAULT_DEFERRED, Geometry, make_streams
+from llmpas.worlds.pybullet.values import BaseConf, ObjectPose
+
+
+def static_facts(config: SceneConfig) -> set[Atom]:
+    """What the robot knows that does not change: tables, bowls (one object each), objects."""
+    facts: set[Atom] = set()
+    tables = [t.name for t in config.tables]
+    bowls = [o.name for o in config.objects if o.kind == "bowl"]
+    for t in tables:
+        facts |= {Atom.of("Region", t), Atom.of("Surface", t)}
+    for b in bowls:
+        facts |= {Atom.of("Region", b), Atom.of("Single", b)}
+    for o in config.objects:
+        facts.add(Atom.of("Object", o.name))
+        facts |= {Atom.of("Stackable", o.name, t) for t in tables}
+        if o.kind == "cube":
+            facts |= {Atom.of("Stackable", o.name, b) for b in bowls}
+    return facts
+
+
+def believe_at(belief: Belief, obj: str, pose: ObjectPose | None) -> None:
+    """Believe ``obj`` rests at ``pose`` (None: its whereabouts are unknown)."""
+    old = {
+        a
+        for a in belief.facts
+        if a.predicate in ("atpose", "supported", "pose") and a.args[0] == obj
+    }
+    belief.facts -= old
+    if pose is None:
+        return
+    p = belief.name(f"p_{obj}", pose)
+    belief.facts |= {
+        Atom("pose", (obj, p)),
+        Atom("atpose", (obj, p)),
+        Atom("supported", (obj, p, pose.region)),
+    }
+
+
+def believed_pose(belief: Belief, obj: str) -> ObjectPose | None:
+    for a in belief.facts:
+        if a.predicate == "atpose" and a.args[0] == obj:
+            value = belief.values.get(a.args[1])
+            return value if isinstance(value, ObjectPose) else None
+    return None
+
+
+def believed_base(belief: Belief) -> BaseConf | None:
+    for a in belief.facts:
+        if a.predicate == "atbconf":
+            value = belief.values.get(a.args[0])
+            return value if isinstance(value, BaseConf) else None
+    return None
+
+
+def initial_belief(
+    config: SceneConfig, poses: Mapping[str, ObjectPose | None], base: BaseConf
+) -> Belief:
+    belief = Belief(static_facts(config), {})
+    for obj, pose in poses.items():
+        believe_at(belief, obj, pose)
+    q = belief.name("q0", base)
+    belief.facts |= {
+        Atom("bconf", (q,)),
+        Atom("atbconf", (q,)),
+        Atom("handempty", ()),
+        Atom("canmove", ()),
+    }
+    return belief
+
+
+def make_problem(
+    geometry: Geometry,
+    belief: Belief,
+    goal: Formula | str,
+    deferred: Collection[str] = DEFAULT_DEFERRED,
+    here: BaseConf | None = None,
+) -> Problem:
+    facts = set(belief.facts)
+    used = {t for a in facts for t in a.args}
+    values: dict[str, Any] = {n: v for n, v in belief.values.items() if n in used}
+    streams = make_streams(
+        geometry,
+        lambda o: believed_pose(belief, o),
+        lambda: believed_base(belief) or here,
+        deferred,
+    )
+    return Problem.create(
+        load_domain(),
+        load_streams(),
+        init=sorted(facts),
+        goal=goal,
+        implementations=streams,
+        objects=values,
+        name="pybullet",
+    )
+
+
+def seeded(seed: int, stream: int) -> np.random.Generator:
+    return np.random.default_rng([seed, stream])

@@ -1,0 +1,104 @@
+"""Values of the PyBullet world shared by its streams, skills and perception."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class ObjectPose:
+    """Where an object rests: the region it is in (a table or a bowl) and its centre (world)."""
+
+    region: str
+    x: float
+    y: float
+    z: float
+
+    def __post_init__(self) -> None:
+        if not all(math.isfinite(v) for v in (self.x, self.y, self.z)):
+            raise ValueError(f"non-finite pose {self}")
+
+    def distance(self, other: ObjectPose) -> float:
+        return math.hypot(self.x - other.x, self.y - other.y)
+
+    def __str__(self) -> str:
+        return f"{self.region}@({self.x:.2f},{self.y:.2f},{self.z:.2f})"
+
+
+Vector = Sequence[float] | np.ndarray  # a point, direction or quaternion
+
+
+@dataclass(frozen=True)
+class BaseConf:
+    """Where the Husky stands: x, y (metres) and heading (radians)."""
+
+    x: float
+    y: float
+    theta: float
+
+    def __post_init__(self) -> None:
+        if not all(math.isfinite(v) for v in (self.x, self.y, self.theta)):
+            raise ValueError(f"non-finite base configuration {self}")
+
+    @property
+    def pose(self) -> tuple[float, float, float]:
+        return (self.x, self.y, self.theta)
+
+    def distance(self, other: BaseConf) -> float:
+        return math.hypot(self.x - other.x, self.y - other.y)
+
+    def __str__(self) -> str:
+        return f"base({self.x:.2f},{self.y:.2f},{math.degrees(self.theta):.0f}deg)"
+
+
+@dataclass(frozen=True)
+class Grasp:
+    """How the gripper takes an object: from the top or from the front."""
+
+    kind: str
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("top", "forward"):
+            raise ValueError(f"grasp kind must be 'top' or 'forward', got {self.kind!r}")
+
+    def __str__(self) -> str:
+        return f"{self.kind}-grasp"
+
+
+@dataclass(frozen=True)
+class BasePath:
+    """A planned drive: dense way points (x, y, heading)."""
+
+    waypoints: tuple[tuple[float, float, float], ...]
+
+    def __post_init__(self) -> None:
+        if len(self.waypoints) < 1:
+            raise ValueError("a base path needs at least one way point")
+
+    @property
+    def length(self) -> float:
+        w = self.waypoints
+        return sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in itertools.pairwise(w))
+
+    def __str__(self) -> str:
+        return f"path({len(self.waypoints)} pts, {self.length:.2f} m)"
+
+
+@dataclass(frozen=True)
+class ArmGoal:
+    """Where the arm should bring the gripper: before (``pre``) or at (``at``) the grasp of an
+    object resting at ``pose``."""
+
+    pose: ObjectPose
+    grasp: Grasp
+    phase: str = "at"
+    obj: str = ""  # the object grasped or held (its size sets the grasp height)
+
+    def __post_init__(self) -> None:
+        if self.phase not in ("pre", "at"):
+            raise ValueError(f"phase must be 'pre' or 'at', got {self.phase!r}")

@@ -1,0 +1,151 @@
+"""The closed loop on the PyBullet world: with the oracle (an upper bound) as the reasoner, and
+with scripted test doubles (replaying fixed answers, knowing nothing) showing that the loop's
+checks of the LLM's goals (shared with the household, :mod:`llmpas.system`) reach this world."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("pybullet")
+pytest.importorskip("ompl")
+
+from llmpas.language.logic import Atom
+from llmpas.reasoning.llm import Request, Response
+from llmpas.reasoning.methods import MethodConfig
+from llmpas.worlds.pybullet.cli import main
+from llmpas.worlds.pybullet.loop import LoopConfig, oracle_factory, run_loop
+from llmpas.worlds.pybullet.run import RunConfig, scenarios
+from llmpas.worlds.pybullet.scene import SceneConfig, TableConfig
+
+QUIET = RunConfig(snapshots=False)
+
+
+def test_object_loss_recovers_with_the_oracle() -> None:
+    result = run_loop("object-loss", oracle_factory, LoopConfig(run=RunConfig(snapshots=False)))
+    assert result.success, result.message
+    assert [str(g) for r in result.rounds if r.proposal for g in r.proposal.goals] == [
+        "(scanned table2)"
+    ]
+    assert [r.episode.status.value for r in result.rounds if r.episode] == [
+        "anomaly",
+        "success",
+        "success",
+    ]
+
+
+@pytest.mark.slow
+def test_object_loss_with_the_oracle_writes_the_episode_folder(tmp_path: Path) -> None:
+    result = run_loop("object-loss", oracle_factory, out=tmp_path)
+    assert result.success, result.message
+    first = result.rounds[0]
+    assert first.episode is not None and first.episode.anomaly is not None
+    assert first.episode.anomaly.constraint == Atom("on", ("cube", "table1"))
+    assert first.proposal is not None
+    assert [str(g) for g in first.proposal.goals] == ["(scanned table2)"]
+    assert result.rounds[-1].episode is not None and result.rounds[-1].episode.succeeded
+    data = json.loads((tmp_path / "loop.json").read_text())
+    assert data["success"] and len(data["rounds"]) == len(result.rounds)
+    assert (tmp_path / "episode.gif").is_file()
+    for i in range(len(result.rounds)):  # every round's report and CSubBT XML
+        assert (tmp_path / f"round-{i}" / "report.md").is_file()
+        assert (tmp_path / f"round-{i}" / "plan.xml").is_file()
+    assert any((tmp_path / "snapshots").glob("*event*.png"))  # the moment the cube was moved
+    assert result.timings["total"] < 120.0
+
+
+@pytest.mark.slow
+def test_action_blocking_recovers_with_the_oracle() -> None:
+    result = run_loop("action-blocking", oracle_factory, LoopConfig(run=RunConfig(snapshots=False)))
+    assert result.success, result.message
+    first = result.rounds[0]
+    assert first.proposal is not None
+    assert str(first.proposal.goals[0]).startswith("(on black_cube ")
+
+
+class Silent:
+    """A reasoner that proposes nothing usable."""
+
+    name = "silent"
+
+    def complete(self, request: Request) -> Response:
+        return Response("I do not know.", model="silent")
+
+
+def test_without_usable_goals_the_loop_stops_and_the_task_is_not_done() -> None:
+    result = run_loop(
+        "object-loss", Silent(), LoopConfig(max_rounds=1, run=RunConfig(snapshots=False))
+    )
+    assert not result.success
+    assert len(result.rounds) == 1
+
+
+def test_cli_runs_nominal_without_llm(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    code = main(["nominal", "--no-llm", "--out", str(tmp_path)])
+    assert code == 0
+    assert "goal achieved: True" in capsys.readouterr().out
+    assert (tmp_path / "report.md").is_file()
+
+
+class Sequence:
+    """A test double replaying fixed answers in order, the last one from then on (it knows
+    nothing about the world)."""
+
+    name = "sequence"
+
+    def __init__(self, *answers: str) -> None:
+        self.answers = answers
+        self.requests: list[Request] = []
+
+    def complete(self, request: Request) -> Response:
+        self.requests.append(request)
+        return Response(self.answers[min(len(self.requests), len(self.answers)) - 1], "scripted")
+
+
+def test_a_lost_cubes_new_table_as_an_on_goal_is_read_as_a_search() -> None:
+    llm = Sequence("Goals: (and (on cube table2))")
+    result = run_loop("object-loss", llm, LoopConfig(run=QUIET))
+    assert result.success, result.message
+    proposal = next(r.proposal for r in result.rounds if r.proposal)
+    assert [str(g) for g in proposal.goals] == ["(scanned table2)"]
+    assert "read (on cube table2) as (scanned table2)" in " ".join(proposal.parse.notes)
+
+
+def test_searching_the_table_the_cube_was_not_found_on_is_sent_back() -> None:
+    llm = Sequence("Goals: (and (scanned table1))", "Goals: (and (scanned table2))")
+    result = run_loop("object-loss", llm, LoopConfig(MethodConfig("one-step"), run=QUIET))
+    assert result.success, result.message
+    proposal = next(r.proposal for r in result.rounds if r.proposal)
+    assert [str(g) for g in proposal.goals] == ["(scanned table2)"] and proposal.repairs == 1
+    repair = llm.requests[-1].messages[-1].content
+    assert "table1 was already searched for cube" in repair
+
+
+def three_tables() -> SceneConfig:
+    scene = scenarios()["object-loss"].scene
+    return replace(scene, tables=(*scene.tables, TableConfig("table3", -1.6, 0.0, math.pi / 2)))
+
+
+def test_a_search_of_the_wrong_table_goes_back_to_the_llm_with_the_places_left() -> None:
+    scenario = replace(scenarios()["object-loss"], name="object-loss-3", scene=three_tables())
+    llm = Sequence("Goals: (and (scanned table3))", "Goals: (and (scanned table2))")
+    result = run_loop(scenario, llm, LoopConfig(MethodConfig("one-step"), run=QUIET))
+    assert result.success, result.message
+    assert [str(g) for r in result.rounds if r.proposal for g in r.proposal.goals] == [
+        "(scanned table3)",
+        "(scanned table2)",
+    ]
+    assert [r.episode.status.value if r.episode else "no plan" for r in result.rounds] == [
+        "anomaly",  # the cube is not on table1
+        "success",  # table3 searched: nothing
+        "no plan",  # the cube is still lost: the same anomaly goes back to the LLM
+        "success",  # table2 searched: found
+        "success",  # the task
+    ]
+    second = llm.requests[-1].messages[-1].content
+    assert "cube was not found on table1, table3" in second
+    assert "places not searched yet for cube: table2" in second
