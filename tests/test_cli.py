@@ -122,3 +122,22 @@ def test_run_with_a_missing_cassette_is_one_line(
     assert main(["run", "state-change-apple", "--llm", f"replay:{tmp_path}"]) == 2
     line = _error_line(capsys)
     assert "no recorded response" in line and str(tmp_path) in line
+
+
+def test_run_object_loss_is_the_pybullet_world_with_its_oracle(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["run", "object-loss", "--llm", "oracle", "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "task done" in out and "(scanned table2)" in out
+    assert (tmp_path / "report.html").exists() and (tmp_path / "episode.gif").exists()
+    assert list((tmp_path / "snapshots").glob("*.png"))
+
+
+def test_run_pybullet_options_and_unknown_scenarios_are_one_line(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert main(["run", "state-change-apple", "--world", "pybullet", "--llm", "oracle"]) == 2
+    assert "no PyBullet scenario 'state-change-apple'" in _error_line(capsys)
+    assert main(["run", "state-change-apple", "--gui", "--llm", "oracle"]) == 2
+    assert "--gui and --no-llm apply to the PyBullet world" in _error_line(capsys)

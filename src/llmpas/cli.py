@@ -222,6 +222,45 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     pe.add_argument("--seed", type=int, default=0)
     pe.add_argument("--out", default="results/perturbation")
     pe.set_defaults(handler=_cmd_bench_perturbation)
+    _add_bench_blocksworld(bsub)
+    _add_bench_prompting(bsub)
+
+
+def _add_bench_prompting(bsub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """``llmpas bench prompting`` (Table II on the household suite) and ``bench validate-data``."""
+    from llmpas.experiments import prompting
+
+    def handler(args: argparse.Namespace, console: Console) -> int:
+        from llmpas.reasoning.llm import LLMError
+
+        try:
+            return prompting.command(args, console)
+        except (ValueError, LLMError) as e:
+            raise CliError(str(e)) from None
+
+    p = bsub.add_parser("prompting", help="prompting methods on the household anomaly suite")
+    prompting.add_arguments(p)
+    p.set_defaults(handler=handler)
+    v = bsub.add_parser("validate-data", help="check the household suite's task files")
+    prompting.add_validate_arguments(v)
+    v.set_defaults(handler=prompting.validate_command)
+
+
+def _add_bench_blocksworld(bsub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """``llmpas bench blocksworld``: LLMs as blocks-world planners, SR per size (Table III)."""
+    from llmpas.experiments import blocksworld
+
+    def handler(args: argparse.Namespace, console: Console) -> int:
+        from llmpas.reasoning.llm import LLMError
+
+        try:
+            return blocksworld.command(args, console)
+        except (ValueError, LLMError) as e:
+            raise CliError(str(e)) from None
+
+    p = bsub.add_parser("blocksworld", help="LLMs as blocks-world planners: SR per size")
+    blocksworld.add_arguments(p)
+    p.set_defaults(handler=handler)
 
 
 # ---------------------------------------------------------------------------- execute / bt
@@ -362,6 +401,35 @@ def _llm(spec: str, record: str | None) -> Any:
     return ReplayBackend(Path(record), inner=inner, mode="auto") if record else inner
 
 
+PYBULLET_SCENARIOS = ("object-loss", "action-blocking")
+
+
+def _world(args: argparse.Namespace) -> str:
+    """``--world``, else pybullet for its own scenarios, else household."""
+    if args.world:
+        return str(args.world)
+    return "pybullet" if args.scenario in PYBULLET_SCENARIOS else "household"
+
+
+def _cmd_run_pybullet(args: argparse.Namespace, console: Console) -> int:
+    from llmpas.reasoning.llm import LLMError
+    from llmpas.reasoning.methods import MethodConfig
+    from llmpas.worlds.pybullet import cli as pb
+    from llmpas.worlds.pybullet.run import scenarios
+
+    if args.scenario not in scenarios():
+        known = ", ".join(sorted(scenarios()))
+        raise CliError(f"no PyBullet scenario {args.scenario!r}; PyBullet scenarios: {known}")
+    try:
+        method = MethodConfig(method=args.method, decoding=args.decoding)
+        llm = "oracle" if args.llm == "oracle" else None
+        if llm is None and not args.no_llm:
+            llm = _llm(args.llm, args.record)
+        return pb.run(args, llm, method, echo=lambda s: console.print(s, highlight=False))
+    except (KeyError, ValueError, LLMError) as e:
+        raise CliError(str(e)) from None
+
+
 def _cmd_run(args: argparse.Namespace, console: Console) -> int:
     from llmpas.reasoning.llm import LLMError
     from llmpas.reasoning.methods import MethodConfig
@@ -369,6 +437,10 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
     from llmpas.worlds.household.run import RunConfig
     from llmpas.worlds.household.scenario import ScenarioError
 
+    if _world(args) == "pybullet":
+        return _cmd_run_pybullet(args, console)
+    if args.gui or args.no_llm:
+        raise CliError("--gui and --no-llm apply to the PyBullet world (--world pybullet)")
     try:
         method = MethodConfig(method=args.method, decoding=args.decoding)
         config = LoopConfig(
@@ -407,8 +479,21 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
 
 
 def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    from llmpas.reasoning.methods import METHODS
+
     p = sub.add_parser("run", help="the closed loop: plan, execute, reason about anomalies")
-    p.add_argument("scenario", help="a shipped scenario name or a .toml file")
+    p.add_argument(
+        "scenario",
+        help="a scenario: object-loss, action-blocking (PyBullet Husky + Panda), a household "
+        "scenario name, or a household .toml file",
+    )
+    p.add_argument(
+        "--world",
+        choices=("household", "pybullet"),
+        help="default: pybullet for object-loss and action-blocking, else household",
+    )
+    p.add_argument("--gui", action="store_true", help="PyBullet: open the simulator window")
+    p.add_argument("--no-llm", action="store_true", help="PyBullet: plan and execute once")
     p.add_argument(
         "--llm",
         default="llama-cpp",
@@ -416,7 +501,9 @@ def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "(default: the offline model)",
     )
     p.add_argument(
-        "--method", default="flp", choices=("flp", "flp-refer", "one-step", "progprompt")
+        "--method",
+        default="flp",
+        choices=METHODS,
     )
     p.add_argument("--decoding", default="grammar", choices=("grammar", "schema", "none"))
     p.add_argument("--rounds", type=int, default=3, help="LLM consultations at most")

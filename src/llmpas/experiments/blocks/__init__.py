@@ -1,0 +1,1 @@
+"""Blocks-world LLM planning experiment: tasks, plan parsing and validation, methods."""

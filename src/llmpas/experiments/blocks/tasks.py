@@ -1,0 +1,238 @@
+"""Blocks-world tasks: generated (seeded) or read from a folder of PDDL problem files; their
+descriptions for prompts; and the Fast Downward reference plan (optimal A* with LM-cut).
+
+A :class:`Task` carries its problem as PDDL text so it can cross process boundaries and be
+hashed into cache keys; :meth:`Task.problem` parses it against the shipped domain.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from functools import cache
+from pathlib import Path
+
+from llmpas.examples._files import read_text
+from llmpas.examples.blocksworld import PACKAGE, problem_text
+from llmpas.language.domain import Domain, parse_domain
+from llmpas.language.errors import LanguageError
+from llmpas.language.logic import Atom, Formula, Not, conjuncts
+from llmpas.language.problem import Problem, parse_problem_text
+from llmpas.language.streams import EMPTY_STREAMS
+from llmpas.planning.downward import ClassicalStatus, DownwardConfig, FastDownward
+
+from .plans import Step
+
+log = logging.getLogger(__name__)
+
+OPTIMAL_SEARCH = "astar(lmcut())"
+
+
+class TaskError(ValueError):
+    """A problem file that cannot be used: one line naming the file."""
+
+
+@cache
+def domain_text() -> str:
+    return read_text(PACKAGE, "domain.pddl")
+
+
+@cache
+def domain() -> Domain:
+    return parse_domain(domain_text(), "blocksworld/domain.pddl")
+
+
+@dataclass(frozen=True)
+class Task:
+    """One blocks-world problem: ``name`` is unique within a run, ``size`` the number of blocks,
+    ``source`` where it came from (``generated`` or the file), ``text`` its PDDL."""
+
+    name: str
+    size: int
+    source: str
+    text: str
+    seed: int | None = None
+
+    def __post_init__(self) -> None:
+        if not self.name.strip():
+            raise ValueError("a task needs a name")
+        if self.size < 1:
+            raise ValueError(f"a task needs at least one block, got {self.size}")
+
+    def problem(self) -> Problem:
+        return _problem(self.text, self.source)
+
+
+@cache
+def _problem(text: str, source: str) -> Problem:
+    pf = parse_problem_text(text, domain(), source)
+    objects = dict(pf.objects)
+    return Problem(
+        domain(),
+        EMPTY_STREAMS,
+        {o: o for o in objects},
+        frozenset(pf.init),
+        pf.goal,
+        costs=pf.costs,
+        object_types=objects,
+        name=pf.name,
+    )
+
+
+def generated_tasks(sizes: Sequence[int], count: int, seed: int = 0) -> list[Task]:
+    """``count`` instances of each size from :func:`~llmpas.examples.blocksworld.generate`,
+    seeds ``seed .. seed + count - 1``."""
+    if count < 1:
+        raise ValueError(f"count must be >= 1, got {count}")
+    return [
+        Task(f"bw{n}-s{s}", n, "generated", problem_text(n, s), s)
+        for n in sizes
+        for s in range(seed, seed + count)
+    ]
+
+
+def read_tasks(folder: str | Path) -> list[Task]:
+    """Every ``*.pddl`` problem file in ``folder`` (sorted; ``domain.pddl`` skipped), checked
+    against the blocks-world domain. Raises :class:`TaskError` naming the first bad file."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise TaskError(f"{folder}: not a folder of PDDL problem files")
+    files = sorted(p for p in folder.glob("*.pddl") if p.name != "domain.pddl")
+    if not files:
+        raise TaskError(f"{folder}: no *.pddl problem files")
+    tasks = []
+    for path in files:
+        try:
+            text = path.read_text(encoding="utf-8")
+            task = Task(path.stem, 1, str(path), text)
+            problem = task.problem()
+        except (LanguageError, OSError, UnicodeDecodeError) as err:
+            message = " ".join(str(err).split())
+            raise TaskError(
+                message if message.startswith(str(path)) else f"{path}: {message}"
+            ) from None
+        if not problem.objects:
+            raise TaskError(f"{path}: the problem has no blocks (:objects is empty)")
+        tasks.append(Task(path.stem, len(problem.objects), str(path), text))
+    return tasks
+
+
+# ---------------------------------------------------------------------------- descriptions
+
+
+def actions_text(dom: Domain) -> str:
+    """The action library: preconditions and effects of every action, one line each."""
+    lines = []
+    for a in dom.actions:
+        head = "(" + " ".join([a.name, *(p.name for p in a.params)]) + ")"
+        pre = " ".join(map(str, conjuncts(a.precondition)))
+        adds = " ".join(str(e) for e in a.effects if isinstance(e, Atom))
+        dels = " ".join(str(e.arg) for e in a.effects if isinstance(e, Not))
+        lines.append(f"{head}: needs {pre}; adds {adds}; deletes {dels}")
+    return "\n".join(lines)
+
+
+def facts_text(facts: Iterable[Atom]) -> str:
+    return " ".join(sorted(map(str, facts)))
+
+
+def towers(facts: Iterable[Atom]) -> list[list[str]]:
+    """Towers listed bottom to top, from ``ontable``/``on`` facts (empty if there are none)."""
+    facts = list(facts)
+    above = {a.args[1]: a.args[0] for a in facts if a.predicate == "on" and len(a.args) == 2}
+    out = []
+    for base in sorted(a.args[0] for a in facts if a.predicate == "ontable" and a.args):
+        tower, seen = [base], {base}
+        while tower[-1] in above and above[tower[-1]] not in seen:
+            tower.append(above[tower[-1]])
+            seen.add(tower[-1])
+        out.append(tower)
+    return out
+
+
+def state_words(facts: Iterable[Atom]) -> str:
+    """The state in plain words: towers bottom to top, and the hand."""
+    facts = list(facts)
+    parts = [
+        "tower " + ", ".join(t) + (" (bottom to top)" if len(t) > 1 else " (alone on the table)")
+        for t in towers(facts)
+    ]
+    held = [a.args[0] for a in facts if a.predicate == "holding" and a.args]
+    hand = f"the hand holds {held[0]}" if held else "the hand is empty"
+    return "; ".join([*parts, hand])
+
+
+def _goal_words(f: Formula) -> str:
+    match f:
+        case Atom("on", (x, y)):
+            return f"{x} is on {y}"
+        case Atom("ontable", (x,)):
+            return f"{x} is on the table"
+        case Atom("clear", (x,)):
+            return f"nothing is on {x}"
+        case Atom("holding", (x,)):
+            return f"the hand holds {x}"
+        case Atom("handempty", ()):
+            return "the hand is empty"
+    return str(f)
+
+
+def task_words(problem: Problem) -> str:
+    """The task as a person would say it (what FLP's first look sees, and nothing else)."""
+    goal = "; ".join(_goal_words(g) for g in conjuncts(problem.goal))
+    return (
+        f"There are {len(problem.objects)} blocks ({', '.join(sorted(problem.objects))}). "
+        f"Now: {state_words(problem.init)}. "
+        f"Rearrange them so that: {goal}."
+    )
+
+
+def goal_text(problem: Problem) -> str:
+    return " ".join(map(str, conjuncts(problem.goal)))
+
+
+# -------------------------------------------------------------------------- reference plan
+
+
+@dataclass(frozen=True)
+class Reference:
+    """Fast Downward's optimal plan for a task (``steps`` empty unless solved)."""
+
+    status: ClassicalStatus
+    steps: tuple[Step, ...]
+    message: str = ""
+
+    def __post_init__(self) -> None:
+        if self.steps and self.status is not ClassicalStatus.SOLVED:
+            raise ValueError("only a solved reference has steps")
+
+    @property
+    def length(self) -> int | None:
+        return len(self.steps) if self.status is ClassicalStatus.SOLVED else None
+
+
+def reference_plan(task: Task, max_time: float = 60.0) -> Reference:
+    """An optimal plan (A* with LM-cut) for ``task``."""
+    planner = FastDownward(DownwardConfig(search=OPTIMAL_SEARCH, max_time=max_time))
+    result = planner.solve(domain_text(), task.text)
+    if not result.solved:
+        log.warning("%s: Fast Downward %s: %s", task.name, result.status.value, result.message)
+        return Reference(result.status, (), result.message)
+    return Reference(result.status, tuple(Step(n, args) for n, args in result.actions))
+
+
+__all__ = [
+    "Reference",
+    "Task",
+    "TaskError",
+    "actions_text",
+    "domain",
+    "facts_text",
+    "generated_tasks",
+    "goal_text",
+    "read_tasks",
+    "reference_plan",
+    "state_words",
+    "task_words",
+]

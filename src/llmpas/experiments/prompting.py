@@ -1,0 +1,557 @@
+"""The prompting experiment (the paper's Table II): every prompting method on the household
+anomaly suite (:mod:`llmpas.experiments.suite`), judged automatically in the closed loop.
+
+For each method, task and sample the closed loop runs the task with the LLM; the sample succeeds
+when the loop resolves the anomaly and the task's success condition holds on the TRUE final
+state (:func:`llmpas.experiments.suite.judge`). Samples differ by the LLM's seed (``seed + k``)
+at ``temperature``; the world is the same in every sample.
+
+Per task i: ``SR_i`` = the share of successful samples, ``L̄_i`` = the mean resolution length of
+the successful samples. Per anomaly type with n tasks (10, 5, 5)::
+
+    SR   = (1/n) Σ_i SR_i
+    ASPL = (1/n) Σ_i (L̄_i / L_gt,i) × SR_i        (a task with SR_i = 0 adds 0)
+
+plus the syntax-error rate (goal answers that did not parse / goal answers), repairs, tokens and
+LLM latency per sample, and the end-to-end completion rate of the closed loop (the loop reported
+the task done). The ``oracle`` row (the labelled oracle answers from the simulator's true state;
+an upper bound, never a default) runs one sample per task (it is deterministic).
+
+Each (method, task, sample) is a cached job (:mod:`llmpas.experiments.jobs`): an interrupted run
+resumes, ``jobs`` runs them in parallel processes. Writes ``prompting.md`` (Table II and the extra
+metrics), ``prompting.csv`` (one row per method and anomaly type), ``prompting_samples.csv``
+(one row per sample) and ``prompting.png``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import statistics
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from rich.console import Console
+
+from llmpas.experiments.jobs import Job, fingerprint, run_jobs
+from llmpas.experiments.suite import (
+    HASH_SEEDS,
+    SUITE_DIR,
+    Category,
+    SuiteTask,
+    judge,
+    load_suite,
+    load_task,
+)
+from llmpas.files import atomic_write, save_figure, write_csv
+from llmpas.planning import PlannerConfig
+from llmpas.reasoning.llm import LLM
+from llmpas.reasoning.methods import DECODINGS, METHODS, MethodConfig
+from llmpas.system import LLMFactory, LoopConfig, oracle_factory
+from llmpas.worlds.household.run import RunConfig
+
+log = logging.getLogger(__name__)
+
+ORACLE = "oracle"
+UPPER_BOUND = "upper bound"
+
+
+@dataclass(frozen=True)
+class PromptingConfig:
+    """One run of the experiment.
+
+    ``llm``: ``oracle`` | ``replay:DIR`` | ``openai:MODEL[@URL]`` | ``llama-cpp[:PATH]`` (as
+    ``llmpas run --llm``); ``record``: a cassette folder the answers are recorded into.
+    ``methods``: prompting methods (of :data:`llmpas.reasoning.methods.METHODS`); ``oracle``
+    adds the upper-bound row. ``tasks``: only these task names (default: the whole suite).
+    """
+
+    llm: str = "llama-cpp"
+    methods: tuple[str, ...] = METHODS
+    oracle: bool = True
+    samples: int = 3
+    temperature: float = 0.7
+    seed: int = 0
+    decoding: str = "grammar"
+    repairs: int = 2
+    max_rounds: int = 3
+    max_tokens: int = 256
+    max_time: float = 60.0  # planner limit per plan
+    suite: Path = SUITE_DIR
+    tasks: tuple[str, ...] | None = None
+    record: Path | None = None
+    jobs: int = 1
+    out_dir: Path = Path("results/prompting")
+
+    def __post_init__(self) -> None:
+        bad = [m for m in self.methods if m not in METHODS]
+        if bad:
+            raise ValueError(f"unknown method {bad[0]!r}; methods: {', '.join(METHODS)}")
+        if len(set(self.methods)) != len(self.methods):
+            raise ValueError("a method is listed twice")
+        if not self.methods and not self.oracle:
+            raise ValueError("nothing to run: give methods or keep the oracle row")
+        if self.samples < 1:
+            raise ValueError(f"samples must be >= 1, got {self.samples}")
+        if not 0.0 <= self.temperature <= 2.0:
+            raise ValueError(f"temperature must be in [0, 2], got {self.temperature}")
+        if self.decoding not in DECODINGS:
+            raise ValueError(f"decoding must be one of {', '.join(DECODINGS)}")
+        if self.repairs < 0:
+            raise ValueError(f"repairs must be >= 0, got {self.repairs}")
+        if self.max_rounds < 1:
+            raise ValueError(f"max_rounds must be >= 1, got {self.max_rounds}")
+        if self.max_tokens < 1:
+            raise ValueError(f"max_tokens must be >= 1, got {self.max_tokens}")
+        if self.max_time <= 0:
+            raise ValueError(f"max_time must be > 0, got {self.max_time}")
+        if self.jobs < 1:
+            raise ValueError(f"jobs must be >= 1, got {self.jobs}")
+        if self.tasks is not None and not self.tasks:
+            raise ValueError("tasks: give at least one task name (or None for all)")
+        if not self.llm.strip():
+            raise ValueError("llm: give a backend (oracle, replay:DIR, openai:MODEL, llama-cpp)")
+
+
+@dataclass(frozen=True)
+class Payload:
+    """One job: run ``method`` (``oracle``: the upper bound) on one task file, sample ``sample``."""
+
+    task_file: str
+    method: str
+    sample: int
+    llm: str  # the backend spec ("oracle" for the oracle row)
+    record: str | None
+    loop: LoopConfig
+
+
+# ------------------------------------------------------------------------------- backends
+
+_BACKENDS: dict[tuple[str, str | None], LLM | LLMFactory] = {}
+
+
+def build_llm(spec: str, record: str | None = None) -> LLM | LLMFactory:
+    """The backend for ``spec`` (``oracle``: the oracle factory), built once per process (a local
+    model is loaded once, not per job). ValueError for a bad spec."""
+    if spec == ORACLE:
+        return oracle_factory
+    key = (spec, record)
+    if key not in _BACKENDS:
+        from llmpas.cli import CliError, _llm
+
+        try:
+            _BACKENDS[key] = _llm(spec, record)
+        except CliError as err:
+            raise ValueError(str(err)) from None
+    return _BACKENDS[key]
+
+
+def loop_config(config: PromptingConfig, method: str, sample: int) -> LoopConfig:
+    """The closed loop of one sample: the method's config with the sample's LLM seed."""
+    is_oracle = method == ORACLE
+    return LoopConfig(
+        method=MethodConfig(
+            method="flp" if is_oracle else method,
+            decoding=config.decoding,
+            repairs=config.repairs,
+            temperature=0.0 if is_oracle else config.temperature,
+            seed=config.seed + sample,
+            max_tokens=config.max_tokens,
+        ),
+        max_rounds=config.max_rounds,
+        run=RunConfig(planner=PlannerConfig(max_time=config.max_time)),
+    )
+
+
+def run_job(payload: Payload) -> dict[str, Any]:
+    """Judge one sample (module level: it may run in another process)."""
+    task = load_task(payload.task_file)
+    llm = build_llm(payload.llm, payload.record)
+    j = judge(task, llm, payload.loop)
+    log.info("%s %s #%d: %s", payload.method, task.name, payload.sample, j.verdict.value)
+    return {"method": payload.method, "sample": payload.sample, "l_gt": task.l_gt, **j.to_json()}
+
+
+# ---------------------------------------------------------------------------------- summary
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One method on one anomaly type (or ``all``)."""
+
+    method: str
+    category: str
+    tasks: int
+    samples: int
+    sr: float
+    aspl: float
+    syntax_error_rate: float | None  # None: no goal answers were read (e.g. none asked)
+    repairs: float  # per sample
+    tokens: float  # per sample
+    latency: float  # seconds per sample
+    completion: float  # share of samples the loop reported done
+    false_done: int  # samples the loop believed done but the truth disagreed
+
+
+def _cell(method: str, category: str, records: Sequence[dict[str, Any]]) -> Cell:
+    by_task: dict[str, list[dict[str, Any]]] = {}
+    for r in records:
+        by_task.setdefault(str(r["task"]), []).append(r)
+    srs, terms = [], []
+    for rs in by_task.values():
+        ok = [r for r in rs if r["success"]]
+        sr = len(ok) / len(rs)
+        srs.append(sr)
+        if ok:
+            mean_len = statistics.fmean(float(r["resolution_length"]) for r in ok)
+            terms.append(mean_len / float(rs[0]["l_gt"]) * sr)
+        else:
+            terms.append(0.0)
+    n = len(by_task)
+    answers = sum(int(r["answers"]) for r in records)
+    count = len(records)
+    return Cell(
+        method=method,
+        category=category,
+        tasks=n,
+        samples=count,
+        sr=sum(srs) / n,
+        aspl=sum(terms) / n,
+        syntax_error_rate=(
+            sum(int(r["syntax_errors"]) for r in records) / answers if answers else None
+        ),
+        repairs=sum(int(r["repairs"]) for r in records) / count,
+        tokens=sum(int(r["tokens"]) for r in records) / count,
+        latency=sum(float(r["latency"]) for r in records) / count,
+        completion=sum(bool(r["completed"]) for r in records) / count,
+        false_done=sum(r["verdict"] == "false-done" for r in records),
+    )
+
+
+def summarise(records: Sequence[dict[str, Any]], methods: Sequence[str]) -> tuple[Cell, ...]:
+    """One cell per method and anomaly type present, plus ``all`` per method."""
+    cells = []
+    for method in methods:
+        mine = [r for r in records if r["method"] == method]
+        if not mine:
+            continue
+        for cat in Category:
+            rs = [r for r in mine if r["category"] == cat.value]
+            if rs:
+                cells.append(_cell(method, cat.value, rs))
+        cells.append(_cell(method, "all", mine))
+    return tuple(cells)
+
+
+def method_label(method: str, llm: str) -> str:
+    if method == ORACLE:
+        return f"oracle ({UPPER_BOUND})"
+    if llm == ORACLE:
+        return f"{method} with the oracle LLM ({UPPER_BOUND})"
+    return method
+
+
+def _f(x: float | None, digits: int = 2) -> str:
+    return "—" if x is None else f"{x:.{digits}f}"
+
+
+def markdown_table(cells: Sequence[Cell], config: PromptingConfig) -> str:
+    methods = list(dict.fromkeys(c.method for c in cells))
+    cats = [c for c in Category if any(x.category == c.value for x in cells)]
+    get = {(c.method, c.category): c for c in cells}
+    sampling = (
+        f"{config.samples} sample(s) per task at temperature {config.temperature:g}, oracle: 1"
+        if config.methods
+        else "1 sample per task"
+    )
+    lines = [
+        f"Prompting methods on the household anomaly suite (LLM: {config.llm}; {sampling}; "
+        f"at most {config.max_rounds} LLM rounds per run). "
+        "SR: success rate; ASPL = (1/n) Σ (L̄_i / L_gt,i) × SR_i.",
+        "",
+        "| Method | " + " | ".join(f"{c.title} SR | {c.title} ASPL" for c in cats) + " |",
+        "|---|" + "---:|---:|" * len(cats),
+    ]
+    for m in methods:
+        row = [method_label(m, config.llm)]
+        for cat in cats:
+            cell = get.get((m, cat.value))
+            row += [_f(cell.sr), _f(cell.aspl)] if cell else ["—", "—"]
+        lines.append("| " + " | ".join(row) + " |")
+    counts = ", ".join(
+        f"{get[(methods[0], c.value)].tasks} {c.value}"
+        for c in cats
+        if (methods[0], c.value) in get
+    )
+    lines += [
+        "",
+        f"Per sample, over all tasks (n = {counts}):",
+        "",
+        "| Method | SR | ASPL | syntax-error rate | repairs | tokens | LLM latency (s) "
+        "| loop completion | false done |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for m in methods:
+        c = get[(m, "all")]
+        lines.append(
+            f"| {method_label(m, config.llm)} | {_f(c.sr)} | {_f(c.aspl)} | "
+            f"{_f(c.syntax_error_rate)} | {c.repairs:.2f} | {c.tokens:.0f} | {c.latency:.2f} | "
+            f"{c.completion:.2f} | {c.false_done} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+# -------------------------------------------------------------------------------------- run
+
+
+@dataclass(frozen=True)
+class Report:
+    records: tuple[dict[str, Any], ...]
+    cells: tuple[Cell, ...]
+    files: tuple[Path, ...] = field(default=())
+
+
+def jobs_for(config: PromptingConfig, tasks: Sequence[SuiteTask]) -> list[Job[Payload]]:
+    rows = ([ORACLE] if config.oracle else []) + list(config.methods)
+    out = []
+    for method in rows:
+        is_oracle = method == ORACLE
+        llm = ORACLE if is_oracle else config.llm
+        record = None if is_oracle or config.record is None else str(config.record)
+        for t in tasks:
+            for k in range(1 if is_oracle else config.samples):
+                loop = loop_config(config, method, k)
+                prompts = "" if is_oracle else _templates_digest()
+                digest = fingerprint([t.digest, asdict(loop), llm, record, prompts])
+                key = f"{method}/{_safe(llm)}/{t.name}/s{k}/{digest}"
+                out.append(Job(key, Payload(t.source, method, k, llm, record, loop)))
+    return out
+
+
+def run_prompting(config: PromptingConfig, console: Console | None = None) -> Report:
+    """Run (or resume) the experiment and write the table, CSVs and plot."""
+    console = console or Console()
+    tasks = load_suite(config.suite, config.tasks)
+    jobs = jobs_for(config, tasks)
+    if config.methods and config.llm != ORACLE and config.jobs == 1:
+        # fail early on a bad spec (with --jobs N each worker process builds its own backend:
+        # a local model is then loaded N times)
+        build_llm(config.llm, None if config.record is None else str(config.record))
+    records = run_jobs(
+        jobs,
+        run_job,
+        config.out_dir / "cache",
+        workers=config.jobs,
+        description="prompting",
+        console=console,
+    )
+    order = ([ORACLE] if config.oracle else []) + list(config.methods)
+    cells = summarise(records, order)
+    files = write_outputs(records, cells, config)
+    console.print(markdown_table(cells, config), soft_wrap=True, highlight=False, markup=False)
+    return Report(tuple(records), cells, files)
+
+
+def write_outputs(
+    records: Sequence[dict[str, Any]], cells: Sequence[Cell], config: PromptingConfig
+) -> tuple[Path, ...]:
+    out = config.out_dir
+    out.mkdir(parents=True, exist_ok=True)
+    md = atomic_write(out / "prompting.md", markdown_table(cells, config))
+    summary = write_csv(
+        out / "prompting.csv",
+        [{**asdict(c), "label": method_label(c.method, config.llm)} for c in cells],
+    )
+    samples = write_csv(
+        out / "prompting_samples.csv", [{k: v for k, v in r.items() if k != "key"} for r in records]
+    )
+    png = out / "prompting.png"
+    plot(cells, config, png)
+    return (md, summary, samples, png)
+
+
+def plot(cells: Sequence[Cell], config: PromptingConfig, path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    methods = list(dict.fromkeys(c.method for c in cells))
+    cats = [c for c in Category if any(x.category == c.value for x in cells)]
+    get = {(c.method, c.category): c for c in cells}
+    width = 0.8 / max(1, len(methods))
+    fig, axes = plt.subplots(1, 2, figsize=(4.0 + 1.2 * len(cats) * max(1, len(methods)), 5.0))
+    for ax, metric, label in zip(axes, ("sr", "aspl"), ("SR", "ASPL"), strict=True):
+        top = 0.0
+        for i, m in enumerate(methods):
+            xs = [j + (i - (len(methods) - 1) / 2) * width for j in range(len(cats))]
+            ys = [
+                float(getattr(get[(m, c.value)], metric)) if (m, c.value) in get else 0.0
+                for c in cats
+            ]
+            top = max(top, *ys)
+            name = method_label(m, config.llm)
+            bars = ax.bar(
+                xs, ys, width * 0.95, label=name, hatch="//" if UPPER_BOUND in name else None
+            )
+            ax.bar_label(bars, labels=[f"{y:.2f}" for y in ys], fontsize=7, padding=1)
+        ax.set_xticks(range(len(cats)), [c.title for c in cats])
+        ax.set_ylim(0, max(1.12, top * 1.15))
+        ax.set_ylabel(label)
+        ax.grid(True, axis="y", alpha=0.3)
+    axes[0].set_title(f"Success rate (LLM: {config.llm})", fontsize=10)
+    axes[1].set_title("ASPL = mean (L̄ / L_gt) × SR", fontsize=10)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=7, loc="lower center", ncol=min(4, len(methods)))
+    fig.tight_layout(rect=(0, 0.1, 1, 1))
+    save_figure(fig, path)
+    plt.close(fig)
+
+
+def _templates_digest() -> str:
+    """A hash of the prompt templates: edited prompts never reuse cached answers."""
+    from importlib import resources
+
+    folder = resources.files("llmpas.reasoning").joinpath("templates")
+    texts = sorted((f.name, f.read_text(encoding="utf-8")) for f in folder.iterdir() if f.is_file())
+    return fingerprint(texts)
+
+
+def _safe(text: str) -> str:
+    return "".join(c if c.isalnum() or c in "-_." else "_" for c in text)[:40]
+
+
+# -------------------------------------------------------------------------------------- CLI
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of ``llmpas bench prompting``."""
+    p.add_argument(
+        "--llm",
+        default="llama-cpp",
+        help="oracle | replay:DIR | openai:MODEL[@BASE_URL] | llama-cpp[:PATH] "
+        "(default: the offline model)",
+    )
+    p.add_argument(
+        "--methods",
+        nargs="+",
+        default=["all"],
+        help=f"prompting methods: all, none (the oracle row only), or some of {', '.join(METHODS)}",
+    )
+    p.add_argument(
+        "--no-oracle", action="store_true", help="leave out the oracle (upper-bound) row"
+    )
+    p.add_argument("--samples", type=int, default=3, help="samples per task and method")
+    p.add_argument("--temperature", type=float, default=0.7)
+    p.add_argument("--seed", type=int, default=0, help="LLM seed of the first sample")
+    p.add_argument("--decoding", default="grammar", choices=DECODINGS)
+    p.add_argument("--repairs", type=int, default=2, help="repair prompts per answer at most")
+    p.add_argument("--rounds", type=int, default=3, help="LLM consultations per run at most")
+    p.add_argument("--max-time", type=float, default=60.0, help="planner seconds per plan")
+    p.add_argument("--suite", default=str(SUITE_DIR), help="folder of task files")
+    p.add_argument("--tasks", nargs="+", help="only these tasks (file stems)")
+    p.add_argument("--record", help="record the LLM's answers into this cassette folder")
+    p.add_argument("--jobs", type=int, default=1, help="samples run in parallel processes")
+    p.add_argument("--out", default="results/prompting", help="folder for tables, plot, cache")
+
+
+def config_from_args(args: argparse.Namespace) -> PromptingConfig:
+    methods = (
+        tuple(METHODS)
+        if "all" in args.methods
+        else ()
+        if args.methods == ["none"]
+        else tuple(args.methods)
+    )
+    return PromptingConfig(
+        llm=args.llm,
+        methods=methods,
+        oracle=not args.no_oracle,
+        samples=args.samples,
+        temperature=args.temperature,
+        seed=args.seed,
+        decoding=args.decoding,
+        repairs=args.repairs,
+        max_rounds=args.rounds,
+        max_time=args.max_time,
+        suite=Path(args.suite),
+        tasks=tuple(args.tasks) if args.tasks else None,
+        record=Path(args.record) if args.record else None,
+        jobs=args.jobs,
+        out_dir=Path(args.out),
+    )
+
+
+def command(args: argparse.Namespace, console: Console) -> int:
+    """``llmpas bench prompting``; user errors are ValueError / LLMError with one line."""
+    report = run_prompting(config_from_args(args), console)
+    console.print(f"wrote {', '.join(str(p) for p in report.files)}")
+    return 0
+
+
+def add_validate_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of ``llmpas bench validate-data``."""
+    p.add_argument("folder", nargs="?", default=str(SUITE_DIR), help="folder of task files")
+    p.add_argument(
+        "--seeds",
+        type=int,
+        default=len(HASH_SEEDS),
+        help="oracle runs per task, with PYTHONHASHSEED 0, 1, ... (l_gt: the shortest found); "
+        "0: one run in this process",
+    )
+    p.add_argument("--jobs", type=int, default=1, help="oracle runs in parallel processes")
+    p.add_argument("--max-time", type=float, default=60.0, help="planner seconds per plan")
+
+
+def validate_command(args: argparse.Namespace, console: Console) -> int:
+    """``llmpas bench validate-data``: one line per mistake; exit status 1 when any."""
+    from llmpas.experiments.jobs import progress_bar
+    from llmpas.experiments.suite import SuiteError, task_files, validate_folder
+
+    if args.seeds < 0 or args.jobs < 1:
+        console.print("[bold red]error[/]: --seeds must be >= 0 and --jobs >= 1")
+        return 2
+    folder = Path(args.folder)
+    config = LoopConfig(run=RunConfig(planner=PlannerConfig(max_time=args.max_time)))
+    try:
+        files = len(task_files(folder))
+    except SuiteError:
+        files = 0
+    total = files * (1 + max(1, args.seeds))
+    with progress_bar(console, "validating", total) as advance:
+        result = validate_folder(
+            folder,
+            config,
+            hash_seeds=tuple(range(args.seeds)),  # 0, 1, ...: HASH_SEEDS by default
+            jobs=args.jobs,
+            progress=lambda _name: advance(),
+        )
+    for issue in result.issues:
+        console.print(f"[bold red]error[/]: {issue}", highlight=False, soft_wrap=True)
+    if result.ok:
+        console.print(f"[bold green]ok[/]: {len(result.tasks)} task files in {folder}")
+        return 0
+    console.print(f"{len(result.issues)} problem(s) in {result.checked} task files")
+    return 1
+
+
+__all__ = [
+    "ORACLE",
+    "Cell",
+    "Payload",
+    "PromptingConfig",
+    "Report",
+    "add_arguments",
+    "add_validate_arguments",
+    "build_llm",
+    "command",
+    "jobs_for",
+    "loop_config",
+    "markdown_table",
+    "run_job",
+    "run_prompting",
+    "summarise",
+    "validate_command",
+]

@@ -1,0 +1,734 @@
+"""The household anomaly suite: one TOML file per task, the judge that decides whether a run
+resolved its anomaly, and the checks of ``llmpas bench validate-data``.
+
+Format of a task file (``suite/household/*.toml``; see ``suite/README.md``): a household
+scenario exactly as :mod:`llmpas.worlds.household.scenario` reads it — the TRUE initial world
+(``[[objects]]``, ``[open]``, ``[robot]``), what the robot believes (``[belief]``), the task goal
+(``[task] goal``) and the anomaly to inject and when (``[[events]]`` with ``after`` triggers, or a
+belief that differs from the truth) — plus one extra table that the scenario parser never sees::
+
+    [judge]
+    category = "object-loss"        # object-loss | action-blocking | state-change
+    l_gt = 7                        # ground-truth shortest resolution length (actions), >= 1
+    success = "(and (On cube bowl))" # optional: checked on the TRUE final state
+                                    #   (default: the task goal); and/or/not over
+                                    #   On/2, Holding/1, Open/1, Dirty/1, Cleaned/1,
+                                    #   Cooked/1, Heated/1, Cooled/1 (no Scanned: it is not
+                                    #   a property of the world)
+
+The task name (``name``) must be the file's stem.
+
+**Resolution length** of a run: the number of plan actions completed after the first anomaly
+until the loop ends (every round after the first anomalous one; actions of an interrupted round
+count as far as they were completed). ``l_gt`` is the resolution length the planner finds from
+the true anomaly state when told the truth there — the labelled oracle's goals (the oracle reads
+the simulator's true state; it is an upper bound, never a default) — the shortest over runs with
+each ``PYTHONHASHSEED`` of :data:`HASH_SEEDS` (the planner's tie-breaking depends on string
+hashing). ``validate-data`` recomputes it and reports a mismatch.
+
+**Judging** a run (:func:`judge`): the closed loop (:func:`llmpas.system.run_loop`) runs the task
+with the given LLM and prompting method; the sample succeeds when every goal the LLM proposed
+was parsed and validated (the loop rejects the others, with repairs), the planner found plans
+from the anomaly state, the loop ended reporting the task done within its budget of LLM rounds,
+AND the success condition holds on the simulator's TRUE final state.
+"""
+
+from __future__ import annotations
+
+import enum
+import hashlib
+import logging
+import time
+import tomllib
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, cast
+
+from llmpas.execution.anomaly import AnomalyReport
+from llmpas.language.errors import PddlSyntaxError
+from llmpas.language.logic import Atom, Not
+from llmpas.language.sexpr import SExpr, SList, Sym, parse_all
+from llmpas.reasoning.goals import GoalParse, GoalStatus, parse_goals
+from llmpas.reasoning.llm import LLM
+from llmpas.reasoning.program import parse_program
+from llmpas.system import LLMFactory, LoopConfig, LoopResult, oracle_factory, run_loop
+from llmpas.worlds.household.layout import kitchen
+from llmpas.worlds.household.reasoning import PROGRAM_CALLS, vocabulary
+from llmpas.worlds.household.run import household_for
+from llmpas.worlds.household.scenario import Scenario, ScenarioError
+from llmpas.worlds.household.sim import HouseholdWorld
+from llmpas.worlds.household.state import TrueState
+
+log = logging.getLogger(__name__)
+
+SUITE_DIR = Path(__file__).with_name("suite") / "household"
+"""The shipped household suite (10 object-loss, 5 action-blocking, 5 state-change tasks)."""
+
+
+class Category(enum.Enum):
+    OBJECT_LOSS = "object-loss"
+    ACTION_BLOCKING = "action-blocking"
+    STATE_CHANGE = "state-change"
+
+    @property
+    def title(self) -> str:
+        return self.value.replace("-", " ").title()
+
+
+EXPECTED_COUNTS: Mapping[Category, int] = {
+    Category.OBJECT_LOSS: 10,
+    Category.ACTION_BLOCKING: 5,
+    Category.STATE_CHANGE: 5,
+}
+"""How many tasks of each category the shipped suite has (the paper's n)."""
+
+ANOMALY_PREDICATE: Mapping[Category, tuple[str, bool]] = {
+    Category.OBJECT_LOSS: ("on", False),  # (On obj region) failed: the object is not there
+    Category.ACTION_BLOCKING: ("full", True),  # (not (Full region)) failed: it is occupied
+    Category.STATE_CHANGE: ("dirty", True),  # (not (Dirty obj)) failed: it got dirty
+}
+"""The constraint the first anomaly report of each category names: (predicate, negated)."""
+
+JUDGE_FIELDS = ("category", "l_gt", "success")
+SUCCESS_PREDICATES: Mapping[str, int] = {
+    "on": 2,
+    "holding": 1,
+    "open": 1,
+    "dirty": 1,
+    "cleaned": 1,
+    "cooked": 1,
+    "heated": 1,
+    "cooled": 1,
+}
+
+
+class SuiteError(ValueError):
+    """A task file that cannot be loaded: ``file: field: message`` on one line."""
+
+
+# ------------------------------------------------------------------------------------ tasks
+
+
+@dataclass(frozen=True)
+class SuiteTask:
+    """One task of the suite: a scenario plus how to judge it."""
+
+    name: str
+    category: Category
+    l_gt: int
+    success: str  # PDDL formula checked on the true final state
+    scenario: Scenario = field(repr=False)
+    source: str = "<task>"
+    digest: str = ""  # sha256 of the file's text (cache keys change when the file does)
+
+    def __post_init__(self) -> None:
+        if self.l_gt < 1:
+            raise ValueError(f"{self.source}: judge.l_gt must be >= 1, got {self.l_gt}")
+        if self.name != self.scenario.name:
+            raise ValueError(f"{self.source}: name {self.name!r} != {self.scenario.name!r}")
+        _success_formula(self.success, self.source, _known_names(self.scenario))
+
+
+def task_from_dict(
+    data: Mapping[str, Any], *, source: str = "<task>", digest: str = ""
+) -> SuiteTask:
+    """Check and build a task from parsed TOML: ``[judge]`` is taken out, the rest goes to the
+    scenario parser unchanged."""
+    rest = {k: v for k, v in data.items() if k != "judge"}
+    if "judge" not in data:
+        raise SuiteError(f"{source}: judge: missing (required): category, l_gt")
+    judge_table = data["judge"]
+    if not isinstance(judge_table, Mapping):
+        raise SuiteError(f"{source}: judge: must be a table")
+    for key in judge_table:
+        if key not in JUDGE_FIELDS:
+            raise SuiteError(
+                f"{source}: judge.{key}: unknown field; fields: {', '.join(JUDGE_FIELDS)}"
+            )
+    try:
+        scenario = Scenario.from_dict(rest, source=source)
+    except ScenarioError as e:
+        raise SuiteError(str(e)) from None
+    stem = Path(source).stem
+    if source.endswith(".toml") and scenario.name != stem:
+        raise SuiteError(f"{source}: name: {scenario.name!r} must be the file's stem {stem!r}")
+    raw_category = judge_table.get("category")
+    if raw_category is None:
+        raise SuiteError(f"{source}: judge.category: missing (required)")
+    try:
+        category = Category(raw_category)
+    except ValueError:
+        known = ", ".join(c.value for c in Category)
+        raise SuiteError(
+            f"{source}: judge.category: unknown category {raw_category!r}; categories: {known}"
+        ) from None
+    l_gt = judge_table.get("l_gt")
+    if l_gt is None:
+        raise SuiteError(f"{source}: judge.l_gt: missing (required)")
+    if isinstance(l_gt, bool) or not isinstance(l_gt, int) or l_gt < 1:
+        raise SuiteError(f"{source}: judge.l_gt: must be an integer >= 1, got {l_gt!r}")
+    success = judge_table.get("success", scenario.goal)
+    if not isinstance(success, str):
+        raise SuiteError(f"{source}: judge.success: must be PDDL text, got {success!r}")
+    _success_formula(success, source, _known_names(scenario))
+    return SuiteTask(scenario.name, category, l_gt, success.strip(), scenario, source, digest)
+
+
+def load_task(path: str | Path) -> SuiteTask:
+    """Read and check one task file (:class:`SuiteError` names the file and the field)."""
+    source = str(path)
+    try:
+        raw = Path(path).read_bytes()
+    except OSError as e:
+        raise SuiteError(f"{source}: cannot read: {e.strerror or e}") from None
+    try:
+        data = tomllib.loads(raw.decode("utf-8"))
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
+        raise SuiteError(f"{source}: invalid TOML: {e}") from None
+    return task_from_dict(data, source=source, digest=hashlib.sha256(raw).hexdigest())
+
+
+def task_files(folder: str | Path = SUITE_DIR) -> list[Path]:
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise SuiteError(f"{folder}: no such folder")
+    return sorted(folder.glob("*.toml"))
+
+
+def load_suite(
+    folder: str | Path = SUITE_DIR, names: Iterable[str] | None = None
+) -> tuple[SuiteTask, ...]:
+    """Every task of ``folder`` (or only ``names``), sorted by category then name. Any broken
+    file is an error (one line per file), never skipped."""
+    files = task_files(folder)
+    if not files:
+        raise SuiteError(f"{folder}: no task files (*.toml)")
+    wanted = None if names is None else set(names)
+    tasks, errors = [], []
+    for path in files:
+        if wanted is not None and path.stem not in wanted:
+            continue
+        try:
+            tasks.append(load_task(path))
+        except SuiteError as e:
+            errors.append(str(e))
+    if errors:
+        raise SuiteError("\n".join(errors))
+    if wanted is not None:
+        missing = wanted - {t.name for t in tasks}
+        if missing:
+            known = ", ".join(p.stem for p in files)
+            raise SuiteError(
+                f"{folder}: unknown task(s) {', '.join(sorted(missing))}; tasks: {known}"
+            )
+    order = list(Category)
+    return tuple(sorted(tasks, key=lambda t: (order.index(t.category), t.name)))
+
+
+# ---------------------------------------------------------------------------- the success check
+
+
+def _known_names(scenario: Scenario) -> set[str]:
+    layout = kitchen()
+    return {*scenario.specs, *layout.regions, *layout.furniture}
+
+
+def _success_formula(text: str, source: str, known: set[str]) -> SList:
+    where = f"{source}: judge.success"
+    try:
+        exprs = parse_all(text, "judge.success")
+    except PddlSyntaxError as e:
+        raise SuiteError(f"{where}: malformed PDDL: {e.message}") from None
+    if len(exprs) != 1 or not isinstance(exprs[0], SList):
+        raise SuiteError(f"{where}: must be one parenthesised PDDL formula")
+    _check_success(exprs[0], where, known)
+    return exprs[0]
+
+
+def _check_success(e: SList, where: str, known: set[str]) -> None:
+    head = e.head()
+    if head in ("and", "or"):
+        for item in e.items[1:]:
+            if not isinstance(item, SList):
+                raise SuiteError(f"{where}: ({head} ...) takes formulas, got {item}")
+            _check_success(item, where, known)
+        return
+    if head == "not":
+        if len(e.items) != 2 or not isinstance(e.items[1], SList):
+            raise SuiteError(f"{where}: (not ...) takes one formula")
+        _check_success(e.items[1], where, known)
+        return
+    if head is None or head not in SUCCESS_PREDICATES:
+        preds = ", ".join(sorted(SUCCESS_PREDICATES))
+        raise SuiteError(f"{where}: unknown predicate {head!r}; predicates: and, or, not, {preds}")
+    args = e.items[1:]
+    if len(args) != SUCCESS_PREDICATES[head]:
+        raise SuiteError(f"{where}: ({head} ...) takes {SUCCESS_PREDICATES[head]} argument(s)")
+    for a in args:
+        if not isinstance(a, Sym) or a.text not in known:
+            raise SuiteError(
+                f"{where}: unknown name {a} in ({head} ...); names: {', '.join(sorted(known))}"
+            )
+
+
+def holds_in_truth(formula: str, truth: TrueState) -> bool:
+    """Whether the success formula holds on the simulator's true state."""
+    exprs = parse_all(formula, "judge.success")
+    if len(exprs) != 1 or not isinstance(exprs[0], SList):
+        raise ValueError(f"not one formula: {formula!r}")
+    return _holds(exprs[0], truth)
+
+
+def _holds(e: SExpr, truth: TrueState) -> bool:
+    assert isinstance(e, SList)
+    head = e.head()
+    if head == "and":
+        return all(_holds(i, truth) for i in e.items[1:])
+    if head == "or":
+        return any(_holds(i, truth) for i in e.items[1:])
+    if head == "not":
+        return not _holds(e.items[1], truth)
+    args = [str(a) for a in e.items[1:]]
+    if head == "on":
+        obj, region = args
+        p = truth.placements.get(obj)
+        return obj != truth.held and p is not None and p.region == region
+    if head == "holding":
+        return truth.held == args[0]
+    if head == "open":
+        return bool(truth.open.get(args[0], False))
+    return head in truth.properties.get(args[0], set())
+
+
+# ------------------------------------------------------------------------------------ judging
+
+
+class Verdict(enum.Enum):
+    SUCCESS = "success"  # the loop reported the task done and the truth agrees
+    NOT_DONE = "not-done"  # the loop gave up (no usable goals, no plan, out of rounds)
+    FALSE_DONE = "false-done"  # the loop believed the task done but the truth disagrees
+    NO_ANOMALY = "no-anomaly"  # nothing went wrong: there was nothing to resolve
+
+
+@dataclass(frozen=True)
+class Judgement:
+    """The judged outcome of one closed-loop run of one task."""
+
+    task: str
+    category: Category
+    verdict: Verdict
+    completed: bool  # the loop reported the task done (end-to-end completion)
+    resolution_length: int  # plan actions completed after the first anomaly
+    anomaly: str  # the first anomaly's violated constraint ("" when none)
+    rounds: int
+    proposals: int  # LLM consultations (one per anomaly)
+    answers: int  # goal answers read (first answers and repairs)
+    syntax_errors: int  # goal answers that did not even parse
+    repairs: int
+    tokens: int
+    latency: float  # seconds spent waiting for the LLM
+    first_status: str  # the first proposal's parse status ("" when none)
+    goals: tuple[str, ...]  # every accepted goal, in order
+    message: str
+    wall_time: float
+
+    @property
+    def success(self) -> bool:
+        return self.verdict is Verdict.SUCCESS
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "task": self.task,
+            "category": self.category.value,
+            "verdict": self.verdict.value,
+            "success": self.success,
+            "completed": self.completed,
+            "resolution_length": self.resolution_length,
+            "anomaly": self.anomaly,
+            "rounds": self.rounds,
+            "proposals": self.proposals,
+            "answers": self.answers,
+            "syntax_errors": self.syntax_errors,
+            "repairs": self.repairs,
+            "tokens": self.tokens,
+            "latency": round(self.latency, 4),
+            "first_status": self.first_status,
+            "goals": " ".join(self.goals),
+            "message": self.message,
+            "wall_time": round(self.wall_time, 3),
+        }
+
+
+@dataclass(frozen=True)
+class Traced:
+    """A closed-loop run with the world it ran in (for checks on the true state)."""
+
+    result: LoopResult
+    world: HouseholdWorld
+
+
+def run_traced(task: SuiteTask, llm: LLM | LLMFactory, config: LoopConfig) -> Traced:
+    """Run the closed loop on ``task`` and keep the world (the factory hook of
+    :func:`run_loop` hands it over; the LLM never sees it unless it is the oracle)."""
+    worlds: list[HouseholdWorld] = []
+
+    def factory(world: HouseholdWorld, report: Callable[[], AnomalyReport | None]) -> LLM:
+        worlds.append(world)
+        return llm if isinstance(llm, LLM) else llm(world, report)
+
+    result = run_loop(task.scenario, factory, config)
+    return Traced(result, worlds[0])
+
+
+def first_anomaly(result: LoopResult) -> tuple[int, AnomalyReport] | None:
+    for i, rnd in enumerate(result.rounds):
+        if rnd.episode is not None and rnd.episode.anomaly is not None:
+            return i, rnd.episode.anomaly
+    return None
+
+
+def resolution_length(result: LoopResult) -> int:
+    """Plan actions completed after the first anomaly (0 when there was none)."""
+    first = first_anomaly(result)
+    if first is None:
+        return 0
+    return sum(
+        len(r.episode.completed) for r in result.rounds[first[0] + 1 :] if r.episode is not None
+    )
+
+
+def _answer_reader(task: SuiteTask, config: LoopConfig) -> Callable[[str], GoalParse]:
+    """How the method reads a goal answer (to count answers that do not even parse): the
+    methods module's own reader when it has one, else goals (programs for ProgPrompt)."""
+    vocab = vocabulary(household_for(task.scenario))
+    from llmpas.reasoning import methods
+
+    reader = getattr(methods, "_reader", None)
+    if reader is not None:
+        blank = methods.Situation("", "", "", "", "", calls=PROGRAM_CALLS)
+        read, _ = reader(blank, vocab, config.method)
+        return cast(Callable[[str], GoalParse], read)
+    if config.method.method == "progprompt":
+        return lambda text: parse_program(text, PROGRAM_CALLS, vocab)
+    return lambda text: parse_goals(text, vocab)
+
+
+def judge(task: SuiteTask, llm: LLM | LLMFactory, config: LoopConfig) -> Judgement:
+    """Run ``task`` through the closed loop with ``llm`` and judge it on the true final state."""
+    start = time.perf_counter()
+    traced = run_traced(task, llm, config)
+    result = traced.result
+    holds = holds_in_truth(task.success, traced.world.truth)
+    first = first_anomaly(result)
+    if first is None:
+        verdict = Verdict.NO_ANOMALY
+    elif not result.success:
+        verdict = Verdict.NOT_DONE
+    elif not holds:
+        verdict = Verdict.FALSE_DONE
+    else:
+        verdict = Verdict.SUCCESS
+    proposals = [r.proposal for r in result.rounds if r.proposal is not None]
+    answers = syntax = 0
+    read = _answer_reader(task, config)
+    for p in proposals:
+        for ex in p.exchanges:
+            if ex.tag != "goals" and not ex.tag.startswith("repair"):
+                continue
+            answers += 1
+            syntax += read(ex.response.text).status in (GoalStatus.SYNTAX, GoalStatus.EMPTY)
+    return Judgement(
+        task=task.name,
+        category=task.category,
+        verdict=verdict,
+        completed=result.success,
+        resolution_length=resolution_length(result),
+        anomaly=str(first[1].constraint) if first else "",
+        rounds=len(result.rounds),
+        proposals=len(proposals),
+        answers=answers,
+        syntax_errors=syntax,
+        repairs=sum(p.repairs for p in proposals),
+        tokens=sum(p.tokens for p in proposals),
+        latency=sum(p.latency for p in proposals),
+        first_status=proposals[0].parse.status.value if proposals else "",
+        goals=tuple(str(g) for p in proposals for g in p.goals),
+        message=result.message,
+        wall_time=time.perf_counter() - start,
+    )
+
+
+# --------------------------------------------------------------------------------- validation
+
+
+@dataclass(frozen=True)
+class Issue:
+    """One mistake in a task file: ``file: field: message``."""
+
+    source: str
+    field: str
+    message: str
+
+    def __str__(self) -> str:
+        return f"{self.source}: {self.field}: {self.message}"
+
+
+def issue_from(error: SuiteError, source: str) -> Issue:
+    """Split a ``file: field: message`` error line."""
+    text = str(error)
+    if text.startswith(f"{source}: "):
+        text = text[len(source) + 2 :]
+    where, sep, message = text.partition(": ")
+    return Issue(source, where, message) if sep else Issue(source, "file", text)
+
+
+HASH_SEEDS = (0, 1, 2, 3)
+"""The planner's tie-breaking depends on Python's string hashing (set iteration order), so the
+resolution it finds can differ between processes. ``l_gt`` is the SHORTEST resolution over runs
+with these fixed ``PYTHONHASHSEED`` values, which makes it reproducible."""
+
+
+@dataclass(frozen=True)
+class OracleRun:
+    """What one oracle run of a task showed: mistakes other than ``l_gt``, and the resolution
+    length (None when the oracle could not resolve the task)."""
+
+    source: str
+    issues: tuple[Issue, ...]
+    length: int | None
+    hash_seed: str = ""
+
+
+def oracle_run(task: SuiteTask, config: LoopConfig | None = None) -> OracleRun:
+    """Run the task with the oracle and check that the task can be planned, every event fires,
+    an anomaly of the task's category happens, and the oracle's resolution completes the task on
+    the true state."""
+    import os
+
+    config = config or LoopConfig()
+    src = task.source
+    seed = os.environ.get("PYTHONHASHSEED", "")
+    traced = run_traced(task, oracle_factory, config)
+    result, world = traced.result, traced.world
+    first_round = result.rounds[0] if result.rounds else None
+    if first_round is None or first_round.plan.plan is None:
+        why = first_round.plan.message if first_round else "no round ran"
+        issue = Issue(
+            src, "task.goal", f"unreachable: no plan from the believed initial state ({why})"
+        )
+        return OracleRun(src, (issue,), None, seed)
+    issues: list[Issue] = []
+    for i, e in enumerate(task.scenario.events):
+        logged = [
+            x for x in world.fired() if x.kind == "event" and x.args == (e.object, str(e.after))
+        ]
+        if not logged:
+            issues.append(
+                Issue(
+                    src,
+                    f"events[{i}].after",
+                    f"never triggers: {e.after} does not happen in the run "
+                    f"({world.successes(e.after.skill)} successful {e.after.skill} calls)",
+                )
+            )
+        elif not any(x.ok for x in logged):
+            issues.append(Issue(src, f"events[{i}]", f"never applies: {logged[0].message}"))
+    first = first_anomaly(result)
+    if first is None:
+        ep = result.rounds[0].episode
+        status = ep.status.value if ep is not None else "no episode"
+        issues.append(
+            Issue(src, "events", f"no anomaly: the plan for the task runs without one ({status})")
+        )
+        return OracleRun(src, tuple(issues), None, seed)
+    predicate, negated = ANOMALY_PREDICATE[task.category]
+    c = first[1].constraint
+    atom = c.arg if isinstance(c, Not) else c
+    if not (
+        isinstance(atom, Atom) and atom.predicate == predicate and isinstance(c, Not) == negated
+    ):
+        want = f"(not ({predicate} ...))" if negated else f"({predicate} ...)"
+        issues.append(
+            Issue(
+                src,
+                "judge.category",
+                f"{task.category.value} expects a violated {want}, but the anomaly is {c}",
+            )
+        )
+    if not result.success or not holds_in_truth(task.success, world.truth):
+        why = result.message if not result.success else "the true final state does not satisfy it"
+        issues.append(
+            Issue(src, "judge.success", f"unreachable: the oracle's resolution fails: {why}")
+        )
+        return OracleRun(src, tuple(issues), None, seed)
+    return OracleRun(src, tuple(issues), resolution_length(result), seed)
+
+
+def check_task(task: SuiteTask, runs: Iterable[OracleRun], *, exact: bool = True) -> list[Issue]:
+    """The mistakes the oracle runs of ``task`` showed (each once), and whether ``l_gt`` is the
+    shortest resolution they found. ``exact``: the runs cover :data:`HASH_SEEDS`, so the
+    shortest must equal ``l_gt``; otherwise it must only not be shorter (fewer runs may miss the
+    shortest)."""
+    runs = list(runs)
+    issues: list[Issue] = []
+    for r in runs:
+        issues.extend(i for i in r.issues if i not in issues)
+    lengths = {r.hash_seed: r.length for r in runs if r.length is not None}
+    if lengths:
+        shortest = min(lengths.values())
+        if shortest < task.l_gt or (exact and shortest != task.l_gt):
+            found = ", ".join(f"{n} (hash seed {s or 'random'})" for s, n in lengths.items())
+            issues.append(
+                Issue(
+                    task.source,
+                    "judge.l_gt",
+                    f"{task.l_gt}, but the shortest resolution the planner finds from the true "
+                    f"anomaly state has {shortest} actions (found: {found})",
+                )
+            )
+    return issues
+
+
+def _oracle_run_file(args: tuple[str, LoopConfig]) -> OracleRun:
+    """:func:`oracle_run` on a task file (module level: runs in a spawned process)."""
+    path, config = args
+    try:
+        return oracle_run(load_task(path), config)
+    except Exception as e:  # a crash in one task is reported, the others are still checked
+        log.exception("checking %s failed", path)
+        issue = Issue(path, "file", f"checking crashed: {type(e).__name__}: {e}")
+        return OracleRun(path, (issue,), None)
+
+
+def _runs_with_hash_seed(
+    tasks: Sequence[SuiteTask],
+    config: LoopConfig,
+    hash_seed: int,
+    jobs: int,
+    progress: Callable[[str], None] | None,
+) -> list[OracleRun]:
+    """Oracle runs of ``tasks`` in fresh processes with ``PYTHONHASHSEED=hash_seed``."""
+    import multiprocessing
+    import os
+    from concurrent.futures import ProcessPoolExecutor
+
+    before = os.environ.get("PYTHONHASHSEED")
+    os.environ["PYTHONHASHSEED"] = str(hash_seed)  # read by the spawned interpreters
+    try:
+        context = multiprocessing.get_context("spawn")
+        # one fresh process per run: a run never depends on what ran before it (counters,
+        # caches), so the result is the same whatever the order and the number of jobs
+        with ProcessPoolExecutor(
+            max_workers=jobs, mp_context=context, max_tasks_per_child=1
+        ) as pool:
+            futures = [pool.submit(_oracle_run_file, (t.source, config)) for t in tasks]
+            runs = []
+            for t, f in zip(tasks, futures, strict=True):
+                runs.append(f.result())
+                if progress is not None:
+                    progress(t.name)
+    finally:
+        if before is None:
+            os.environ.pop("PYTHONHASHSEED", None)
+        else:
+            os.environ["PYTHONHASHSEED"] = before
+    return runs
+
+
+@dataclass(frozen=True)
+class Validation:
+    tasks: tuple[SuiteTask, ...]
+    issues: tuple[Issue, ...]
+    checked: int  # files looked at
+
+    @property
+    def ok(self) -> bool:
+        return not self.issues
+
+
+def validate_folder(
+    folder: str | Path = SUITE_DIR,
+    config: LoopConfig | None = None,
+    *,
+    hash_seeds: Sequence[int] = HASH_SEEDS,
+    jobs: int = 1,
+    expect_counts: bool | None = None,
+    progress: Callable[[str], None] | None = None,
+) -> Validation:
+    """Check every task file of ``folder``: static errors (format, unknown names), then oracle
+    runs with each of ``hash_seeds`` in ``jobs`` spawned processes (see :func:`oracle_run` and
+    :func:`check_task`; no hash seeds: one run in this process). ``expect_counts``: require the
+    shipped suite's 10/5/5 tasks per category (default: only for the shipped folder).
+    ``progress`` is called once per file and per oracle run."""
+    if jobs < 1:
+        raise ValueError(f"jobs must be >= 1, got {jobs}")
+    config = config or LoopConfig()
+    folder = Path(folder)
+    issues: list[Issue] = []
+    try:
+        files = task_files(folder)
+    except SuiteError as e:
+        return Validation((), (Issue(str(folder), "folder", str(e).split(": ", 1)[-1]),), 0)
+    if not files:
+        return Validation((), (Issue(str(folder), "folder", "no task files (*.toml)"),), 0)
+    tasks: list[SuiteTask] = []
+    for path in files:
+        try:
+            tasks.append(load_task(path))
+        except SuiteError as e:
+            issues.append(issue_from(e, str(path)))
+            if progress is not None:  # no oracle runs for it either
+                for _ in range(max(1, len(hash_seeds))):
+                    progress(path.stem)
+        if progress is not None:
+            progress(path.stem)
+    runs: dict[str, list[OracleRun]] = {t.source: [] for t in tasks}
+    if hash_seeds:
+        for seed in hash_seeds:
+            for r in _runs_with_hash_seed(tasks, config, seed, jobs, progress):
+                runs[r.source].append(r)
+    else:
+        for t in tasks:
+            runs[t.source].append(_oracle_run_file((t.source, config)))
+            if progress is not None:
+                progress(t.name)
+    exact = set(HASH_SEEDS) <= set(hash_seeds)
+    for t in tasks:
+        issues.extend(check_task(t, runs[t.source], exact=exact))
+    if expect_counts is None:
+        expect_counts = folder.resolve() == SUITE_DIR.resolve()
+    if expect_counts and len(tasks) == len(files):
+        for cat, n in EXPECTED_COUNTS.items():
+            have = sum(t.category is cat for t in tasks)
+            if have != n:
+                issues.append(
+                    Issue(str(folder), "judge.category", f"{have} {cat.value} tasks, expected {n}")
+                )
+    return Validation(tuple(tasks), tuple(issues), len(files))
+
+
+__all__ = [
+    "ANOMALY_PREDICATE",
+    "EXPECTED_COUNTS",
+    "HASH_SEEDS",
+    "SUITE_DIR",
+    "Category",
+    "Issue",
+    "Judgement",
+    "OracleRun",
+    "SuiteError",
+    "SuiteTask",
+    "Validation",
+    "Verdict",
+    "check_task",
+    "holds_in_truth",
+    "judge",
+    "load_suite",
+    "load_task",
+    "oracle_run",
+    "resolution_length",
+    "run_traced",
+    "task_from_dict",
+    "validate_folder",
+]

@@ -1,0 +1,5 @@
+(define (problem bad)
+  (:domain blocksworld)
+  (:objects a b)
+  (:init (handempty) (ontable a) (ontable b) (clear a) (clear b)
+  (:goal (on a b)))

@@ -1,0 +1,6 @@
+; a hand-written problem with a partial goal (only one fact)
+(define (problem partial-goal)
+  (:domain blocksworld)
+  (:objects red green blue)
+  (:init (handempty) (ontable red) (on green red) (clear green) (ontable blue) (clear blue))
+  (:goal (on red blue)))
