@@ -230,17 +230,9 @@ def _add_bench_prompting(bsub: argparse._SubParsersAction[argparse.ArgumentParse
     """``llmpas bench prompting`` (Table II on the household suite) and ``bench validate-data``."""
     from llmpas.experiments import prompting
 
-    def handler(args: argparse.Namespace, console: Console) -> int:
-        from llmpas.reasoning.llm import LLMError
-
-        try:
-            return prompting.command(args, console)
-        except (ValueError, LLMError) as e:
-            raise CliError(str(e)) from None
-
     p = bsub.add_parser("prompting", help="prompting methods on the household anomaly suite")
     prompting.add_arguments(p)
-    p.set_defaults(handler=handler)
+    p.set_defaults(handler=_one_line_errors(prompting.command))
     v = bsub.add_parser("validate-data", help="check the household suite's task files")
     prompting.add_validate_arguments(v)
     v.set_defaults(handler=prompting.validate_command)
@@ -250,17 +242,23 @@ def _add_bench_blocksworld(bsub: argparse._SubParsersAction[argparse.ArgumentPar
     """``llmpas bench blocksworld``: LLMs as blocks-world planners, SR per size (Table III)."""
     from llmpas.experiments import blocksworld
 
+    p = bsub.add_parser("blocksworld", help="LLMs as blocks-world planners: SR per size")
+    blocksworld.add_arguments(p)
+    p.set_defaults(handler=_one_line_errors(blocksworld.command))
+
+
+def _one_line_errors(command: Handler) -> Handler:
+    """``command`` with bad values and LLM failures turned into one-line CLI errors."""
+
     def handler(args: argparse.Namespace, console: Console) -> int:
         from llmpas.reasoning.llm import LLMError
 
         try:
-            return blocksworld.command(args, console)
+            return command(args, console)
         except (ValueError, LLMError) as e:
             raise CliError(str(e)) from None
 
-    p = bsub.add_parser("blocksworld", help="LLMs as blocks-world planners: SR per size")
-    blocksworld.add_arguments(p)
-    p.set_defaults(handler=handler)
+    return handler
 
 
 # ---------------------------------------------------------------------------- execute / bt

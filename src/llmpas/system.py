@@ -255,7 +255,7 @@ class _Loop:
         new = list(proposal.goals)
         task = parse_formula(self.world.task, self.sem.domain)
         negated = {g.arg for g in new if isinstance(g, Not)}
-        keep = [a for a in atoms_of(task) if a not in negated]
+        keep = [a for a in atoms_of(task) if a not in negated and a not in new]
         both = And((*new, *keep))
         if self.plan(both)[0].solved:
             return both, str(both)

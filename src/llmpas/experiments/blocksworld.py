@@ -42,7 +42,7 @@ from llmpas.experiments.blocks.tasks import (
     read_tasks,
     reference_plan,
 )
-from llmpas.experiments.jobs import Job, fingerprint, run_jobs
+from llmpas.experiments.jobs import Job, backend, fingerprint, run_jobs
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.reasoning.llm import LLM
 from llmpas.reasoning.methods import template
@@ -169,20 +169,11 @@ class Report:
 
 # ------------------------------------------------------------------------------------ LLM
 
-_BACKENDS: dict[tuple[str, str | None], LLM] = {}
-
 
 def build_llm(spec: str, record: str | None) -> LLM:
     """The backend for ``spec`` (not ``oracle``), built once per process."""
-    key = (spec, record)
-    if key not in _BACKENDS:
-        from llmpas.cli import CliError, _llm
-
-        try:
-            _BACKENDS[key] = _llm(spec, record)
-        except CliError as err:
-            raise ValueError(str(err)) from None
-    return _BACKENDS[key]
+    llm: LLM = backend(spec, record)
+    return llm
 
 
 def method_label(method: str, llm: str) -> str:

@@ -17,6 +17,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from dataclasses import dataclass
+from functools import cache
 from pathlib import Path
 from typing import Any, Generic, TypeVar
 
@@ -49,6 +50,18 @@ class Job(Generic[P]):
     def __post_init__(self) -> None:
         if not self.key.strip():
             raise ValueError("a job needs a non-empty key")
+
+
+@cache
+def backend(spec: str, record: str | None = None) -> Any:
+    """The LLM backend for a ``--llm`` spec, built once per process (a worker loads a local model
+    once, not per job). ValueError for a bad spec."""
+    from llmpas.cli import CliError, _llm
+
+    try:
+        return _llm(spec, record)
+    except CliError as err:
+        raise ValueError(str(err)) from None
 
 
 def fingerprint(value: Any, length: int = 10) -> str:
@@ -168,4 +181,4 @@ def _parallel(
                 advance()
 
 
-__all__ = ["Job", "cache_file", "cached", "fingerprint", "progress_bar", "run_jobs"]
+__all__ = ["Job", "backend", "cache_file", "cached", "fingerprint", "progress_bar", "run_jobs"]

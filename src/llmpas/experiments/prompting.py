@@ -35,7 +35,7 @@ from typing import Any
 
 from rich.console import Console
 
-from llmpas.experiments.jobs import Job, fingerprint, run_jobs
+from llmpas.experiments.jobs import Job, backend, fingerprint, run_jobs
 from llmpas.experiments.suite import (
     HASH_SEEDS,
     SUITE_DIR,
@@ -129,23 +129,14 @@ class Payload:
 
 # ------------------------------------------------------------------------------- backends
 
-_BACKENDS: dict[tuple[str, str | None], LLM | LLMFactory] = {}
-
 
 def build_llm(spec: str, record: str | None = None) -> LLM | LLMFactory:
     """The backend for ``spec`` (``oracle``: the oracle factory), built once per process (a local
     model is loaded once, not per job). ValueError for a bad spec."""
     if spec == ORACLE:
         return oracle_factory
-    key = (spec, record)
-    if key not in _BACKENDS:
-        from llmpas.cli import CliError, _llm
-
-        try:
-            _BACKENDS[key] = _llm(spec, record)
-        except CliError as err:
-            raise ValueError(str(err)) from None
-    return _BACKENDS[key]
+    llm: LLM = backend(spec, record)
+    return llm
 
 
 def loop_config(config: PromptingConfig, method: str, sample: int) -> LoopConfig:

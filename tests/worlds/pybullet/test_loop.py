@@ -149,3 +149,26 @@ def test_a_search_of_the_wrong_table_goes_back_to_the_llm_with_the_places_left()
     second = llm.requests[-1].messages[-1].content
     assert "cube was not found on table1, table3" in second
     assert "places not searched yet for cube: table2" in second
+
+
+CASSETTES = Path(__file__).parents[2] / "data" / "cassettes" / "qwen1.5b-pybullet"
+
+
+def _replayed(seed: int) -> bool:
+    from llmpas.reasoning.backends.replay import ReplayBackend
+
+    llm = ReplayBackend(CASSETTES, mode="replay")  # the offline model, recorded once
+    config = LoopConfig(run=replace(QUIET, seed=seed))
+    result = run_loop("action-blocking", llm, config)
+    proposals = [r.proposal for r in result.rounds if r.proposal]
+    assert proposals and all(p.first_look for p in proposals)
+    return result.success
+
+
+def test_action_blocking_recovers_with_the_offline_models_recorded_answers() -> None:
+    assert _replayed(0)
+
+
+@pytest.mark.slow
+def test_action_blocking_with_the_offline_model_succeeds_in_9_of_10_seeds() -> None:
+    assert sum(_replayed(seed) for seed in range(10)) >= 9
