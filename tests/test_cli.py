@@ -132,6 +132,9 @@ def test_run_object_loss_is_the_pybullet_world_with_its_oracle(
     assert "task done" in out and "(scanned table2)" in out
     assert (tmp_path / "report.html").exists() and (tmp_path / "episode.gif").exists()
     assert list((tmp_path / "snapshots").glob("*.png"))
+    loop = (tmp_path / "loop.md").read_text()  # both prompts and answers, the goals taken
+    assert "#### first-look: prompt" in loop and "#### goals: answer" in loop
+    assert "(scanned table2)" in loop
 
 
 def test_run_pybullet_options_and_unknown_scenarios_are_one_line(

@@ -30,7 +30,7 @@ from llmpas.reasoning.goals import Vocabulary
 from llmpas.reasoning.llm import LLM, Request, Response
 from llmpas.reasoning.methods import Situation
 from llmpas.reasoning.program import Call
-from llmpas.system import LoopResult, LoopSettings, Round, close_loop
+from llmpas.system import LoopResult, LoopSettings, Round, close_loop, loop_markdown
 from llmpas.worlds.household.problem import load_domain
 from llmpas.worlds.pybullet.decomposition import table_of
 from llmpas.worlds.pybullet.problem import believed_pose
@@ -244,7 +244,8 @@ def run_loop(
 
 def save_loop(result: LoopResult, world: PyBulletLoopWorld, folder: str | Path) -> list[Path]:
     """The episode folder of the last executed round (report, snapshots, GIF, CSubBT XML), each
-    executed round's report in ``round-I`` and ``loop.json``."""
+    executed round's report in ``round-I``, ``loop.json`` and ``loop.md`` (every prompt and
+    answer, the goals taken and the repairs)."""
     out = Path(folder)
     written: list[Path] = []
     if world.executed:
@@ -267,6 +268,7 @@ def save_loop(result: LoopResult, world: PyBulletLoopWorld, folder: str | Path) 
                     rnd.episode, out / f"round-{i}", world.specs(rnd.episode), title
                 )
     written.append(atomic_write(out / "loop.json", json.dumps(loop_json(result), indent=2)))
+    written.append(atomic_write(out / "loop.md", loop_markdown(result)))  # prompts and answers
     return written
 
 
