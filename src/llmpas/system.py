@@ -276,6 +276,7 @@ class _Loop:
                         errors.append(
                             f"{g}: {g.args[0]} was already searched for {obj} from "
                             "several positions without finding it; look elsewhere"
+                            + self.not_searched(obj, regions)
                         )
         if errors:
             return rejected(parse, GoalStatus.REPEATED, errors)
@@ -367,12 +368,15 @@ class _Loop:
                 for obj in lost:
                     self.searched[obj].add(goal.args[0])
 
+    def not_searched(self, obj: str, regions: set[str]) -> str:
+        rest = [p for p in self.world.search_places() if p not in regions]
+        return f" (not searched yet: {', '.join(rest)})" if rest else ""
+
     def history(self) -> str:
-        places = self.world.search_places()
         lines = []
         for obj, regions in self.searched.items():
             lines.append(f"- {obj} was not found on {', '.join(sorted(regions))}")
-            rest = [p for p in places if p not in regions]
+            rest = [p for p in self.world.search_places() if p not in regions]
             lines.append(f"- places not searched yet for {obj}: {', '.join(rest)}")
         lines += [f"- goals {' '.join(sorted(t))} did not help" for t in self.tried]
         return "\n".join(lines)

@@ -123,6 +123,7 @@ def test_searching_the_table_the_cube_was_not_found_on_is_sent_back() -> None:
     assert [str(g) for g in proposal.goals] == ["(scanned table2)"] and proposal.repairs == 1
     repair = llm.requests[-1].messages[-1].content
     assert "table1 was already searched for cube" in repair
+    assert "(not searched yet: table2)" in repair  # the feedback names where to look
 
 
 def three_tables() -> SceneConfig:
