@@ -18,15 +18,13 @@ from __future__ import annotations
 import itertools
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
-from typing import Any
 
-from llmpas.execution.anomaly import Failure
 from llmpas.execution.context import Belief, Context
 from llmpas.execution.csubbt import Constraint, SubAction, SubtreeSpec, Values
+from llmpas.execution.plan_builder import PlanBuilder, Recipe, failing_literal
 from llmpas.execution.space import Dimension
 from llmpas.execution.world import Observation, SkillResult
-from llmpas.language.domain import Action
-from llmpas.language.logic import Atom, Formula, Not, Substitution, conjuncts, effect_atoms
+from llmpas.language.logic import Atom
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics
 from llmpas.planning.result import Plan, PlanStep
@@ -38,9 +36,7 @@ from llmpas.worlds.household.problem import (
 )
 from llmpas.worlds.household.values import ArmTarget, BaseConf, Grasp, Motion, Placement
 
-_ADOPTED = frozenset({"pose", "supported", "grasp"})  # stream facts the belief keeps
 BASE_ACTIONS = ("pick", "place", "scan_table", "scan_drawer", "scan_cover", "open", "close")
-Recipe = tuple[tuple[Dimension, ...], tuple[SubAction, ...]]
 OK = SkillResult.success()
 
 
@@ -98,58 +94,30 @@ def _believe_seen(belief: Belief, house: Household, obj: str, place: Placement) 
     believe_at(belief, obj, place)
 
 
-def failing_literal(
-    sem: Semantics, belief: Belief, step: PlanStep, problem: Problem, plan: Plan
-) -> Formula | None:
-    """The first conjunct of the step's precondition that the believed state makes false.
-
-    Literals over stream-certified predicates (Kin, View, ...) and the base pose are not checked
-    here: the subtree satisfies them itself, with its samplers."""
-    action = problem.domain.action(step.action)
-    env = dict(zip((p.name for p in action.params), step.args, strict=True))
-    handled = set(problem.streams.certified_predicates) | {"atbconf"}
-    state = sem.state(belief.facts | plan.certified)
-    for c in conjuncts(action.precondition):
-        inner = c.arg if isinstance(c, Not) else c
-        if isinstance(inner, Atom) and inner.predicate in handled:
-            continue
-        ground = Substitution(env).formula(c)
-        if not sem.holds(ground, state):
-            return ground
-    return None
-
-
 # ------------------------------------------------------------------------------ the builder
 
 
 @dataclass
-class Builder:
+class Builder(PlanBuilder):
     """Builds the subtree specs of one plan, for one household and problem."""
 
     house: Household
     problem: Problem
     plan: Plan
     config: ExplorationConfig
+    merged = BASE_ACTIONS
 
     def __post_init__(self) -> None:
         self.sem = Semantics(self.problem.domain, {}, {}, strict_costs=False)
 
-    def specs(self) -> list[SubtreeSpec]:
-        steps = list(self.plan.steps)
-        out: list[SubtreeSpec] = []
-        i = 0
-        while i < len(steps):
-            merge = (
-                steps[i].action == "move_base"
-                and i + 1 < len(steps)
-                and steps[i + 1].action in BASE_ACTIONS
-            )
-            idx = (i, i + 1) if merge else (i,)
-            out.append(self.spec(idx, steps[idx[-1]], merged=merge))
-            i += len(idx)
-        return out
+    @property
+    def max_samples(self) -> int:
+        return self.config.max_samples
 
-    def spec(self, idx: tuple[int, ...], step: PlanStep, merged: bool) -> SubtreeSpec:
+    def forget_object(self, belief: Belief, obj: str) -> None:
+        believe_at(belief, obj, None)
+
+    def recipe(self, step: PlanStep) -> Recipe:
         recipes: dict[str, Callable[[PlanStep], Recipe]] = {
             "pick": self.pick,
             "place": self.place,
@@ -160,49 +128,9 @@ class Builder:
             "close": self.open_close,
             "move_base": self.move,
         }
-        dims, subs = recipes.get(step.action, self.process)(step)
-        prefix = "move-and-" if merged else ""
-        shown = _shown(step.args)
-        return SubtreeSpec(
-            label=f"{prefix}{step.action} {' '.join(shown)}".strip(),
-            steps=idx,
-            action=prefix + step.action,
-            args=tuple(shown),
-            fixed={},
-            dims=dims,
-            sub_actions=subs,
-            max_samples=self.config.max_samples,
-            on_success=self._effects([self.plan.steps[k] for k in idx]),
-            on_failure=self._forget(step),
-            atoms=self._achieves([self.plan.steps[k] for k in idx]),
-        )
-
-    def _achieves(self, steps: list[PlanStep]) -> tuple[Atom, ...]:
-        """The ground atoms the steps add (what the subtree is for), for reports and maps."""
-        out: list[Atom] = []
-        for st in steps:
-            action = self.problem.domain.action(st.action)
-            sub = Substitution(dict(zip((p.name for p in action.params), st.args, strict=True)))
-            out += [sub.atom(a) for add, a in _effect_atoms(action) if add]
-        return tuple(out)
+        return recipes.get(step.action, self.process)(step)
 
     # ---------------------------------------------------------------- shared pieces
-    def _precondition(self, step: PlanStep) -> Constraint:
-        """The step's precondition in the believed state, reported as the literal that fails."""
-        last: dict[str, Formula] = {}
-
-        def check(v: Values, ctx: Context) -> str | None:
-            lit = failing_literal(self.sem, ctx.belief, step, self.problem, self.plan)
-            if lit is None:
-                return None
-            last["lit"] = lit
-            return f"{lit} does not hold in what the robot perceives"
-
-        def atom(v: Values) -> Any:
-            return last.get("lit", Atom("precondition", (step.action,)))
-
-        return Constraint("Precondition", check, atom)
-
     def _check(self, step: PlanStep, *extra: Constraint) -> SubAction:
         return SubAction("check", lambda v, c: OK, constraints=(*extra, self._precondition(step)))
 
@@ -251,11 +179,6 @@ class Builder:
         out = next(self._stream("plan-base-motion", (here, target)), None)
         return None if out is not None else f"no collision-free drive to {target}"
 
-    def _stream(self, name: str, inputs: tuple[Any, ...]) -> Iterator[Any]:
-        """A (deferred) stream of the problem, evaluated now on perceived values."""
-        for out in self.problem.bound_streams[name].outputs(inputs):
-            yield out[0]
-
     def _view_bases(self, region: Callable[[Values], str]) -> Dimension:
         def sample(v: Values) -> Iterator[BaseConf]:
             yield from self._stream("sample-view", (region(v),))
@@ -301,46 +224,6 @@ class Builder:
     def _reach_check(self, p: Placement, base: BaseConf) -> str | None:
         d = ((p.x - base.x) ** 2 + (p.y - base.y) ** 2) ** 0.5
         return None if d <= self.house.layout.reach else f"{p} is {d:.2f} m from the base"
-
-    def _effects(self, steps: list[PlanStep]) -> Callable[[Values, Context], None]:
-        """Apply the PDDL effects of the steps to the belief; base placeholders get the pose
-        the robot actually used."""
-
-        def apply(v: Values, ctx: Context) -> None:
-            for st in steps:
-                for ref in st.deferred:
-                    if ref.stream in ("inverse-kinematics", "sample-view"):
-                        base = v.get("base", v.get("view_base"))
-                        ctx.belief.values.update(dict.fromkeys(ref.outputs, base))
-                        ctx.belief.facts |= {Atom("bconf", (o,)) for o in ref.outputs}
-                self._adopt(st, ctx)
-                action = self.problem.domain.action(st.action)
-                state = self.sem.state(ctx.belief.facts | self.plan.certified)
-                facts, _ = self.sem.apply(action, st.args, state)
-                changed = {a.predicate for _, a in _effect_atoms(action)}
-                keep = {a for a in ctx.belief.facts if a.predicate not in changed}
-                ctx.belief.facts = keep | {a for a in facts if a.predicate in changed}
-
-        return apply
-
-    def _adopt(self, st: PlanStep, ctx: Context) -> None:
-        """What planning produced for this step becomes belief: the grasp and the placement
-        pose it used (their values and the facts streams certified about them)."""
-        for name in st.args:
-            value = self.plan.objects.get(name)
-            if value is None or name in ctx.belief.values or name in self.problem.objects:
-                continue  # only what streams produced
-            ctx.belief.values[name] = value
-            ctx.belief.facts |= {
-                a for a in self.plan.certified if a.predicate in _ADOPTED and name in a.args
-            }
-
-    def _forget(self, step: PlanStep) -> Callable[[Failure, Context], None]:
-        def forget(failure: Failure, ctx: Context) -> None:
-            if failure.constraint.name == "Detected" and step.args:
-                believe_at(ctx.belief, step.args[0], None)  # not where it was believed
-
-        return forget
 
     # ---------------------------------------------------------------- recipes
     def _locate(self, obj: str, region: str) -> Recipe:
@@ -546,15 +429,6 @@ class Builder:
 
         dims = (Dimension("base", target, budget=1, describe=str),)
         return dims, (self._go("move_base", "base"),)
-
-
-def _effect_atoms(action: Action) -> Iterator[tuple[bool, Atom]]:
-    return effect_atoms(action.effects)
-
-
-def _shown(args: Iterable[str]) -> list[str]:
-    """Plan arguments for labels: placeholders of deferred streams are shown as '?'."""
-    return [a if not a.startswith("#") else "?" for a in args]
 
 
 def build_specs(

@@ -99,25 +99,11 @@ class Household:
 
 def believe_at(belief: Belief, obj: str, place: Placement | None) -> None:
     """Believe ``obj`` rests at ``place`` (None: its whereabouts are unknown)."""
-    old = [a for a in belief.facts if a.predicate in ("atpose", "supported") and a.args[0] == obj]
-    belief.facts -= set(old)
-    belief.facts -= {a for a in belief.facts if a.predicate == "pose" and a.args[0] == obj}
-    if place is None:
-        return
-    p = belief.name(f"p_{obj}", place)
-    belief.facts |= {
-        Atom("pose", (obj, p)),
-        Atom("atpose", (obj, p)),
-        Atom("supported", (obj, p, place.region)),
-    }
+    belief.rests_at(obj, place)
 
 
 def believed_place(belief: Belief, obj: str) -> Placement | None:
-    for a in belief.facts:
-        if a.predicate == "atpose" and a.args[0] == obj:
-            value = belief.values.get(a.args[1])
-            return value if isinstance(value, Placement) else None
-    return None
+    return belief.pose_of(obj, Placement)
 
 
 def initial_belief(

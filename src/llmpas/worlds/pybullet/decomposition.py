@@ -12,26 +12,22 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import Any
 
-from llmpas.execution.anomaly import Failure
 from llmpas.execution.context import Belief, Context
 from llmpas.execution.csubbt import Constraint, SubAction, SubtreeSpec, Values
+from llmpas.execution.plan_builder import PlanBuilder, Recipe
 from llmpas.execution.space import Dimension
 from llmpas.execution.world import Observation, SkillResult
-from llmpas.language.logic import Atom, Formula, Substitution, effect_atoms
+from llmpas.language.logic import Atom
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics
 from llmpas.planning.result import Plan, PlanStep
-from llmpas.worlds.household.decomposition import failing_literal
 from llmpas.worlds.pybullet.problem import believe_at, believed_pose
 from llmpas.worlds.pybullet.scene import TABLE_TOP, SceneConfig
 from llmpas.worlds.pybullet.values import ArmGoal, BaseConf, BasePath, Grasp, ObjectPose
 
 OK = SkillResult.success()
 MERGED = ("pick", "place", "scan_table")
-_ADOPTED = frozenset({"pose", "supported", "grasp"})
-Recipe = tuple[tuple[Dimension, ...], tuple[SubAction, ...]]
 
 
 @dataclass(frozen=True)
@@ -76,7 +72,9 @@ def observe(belief: Belief, config: SceneConfig, obs: Observation) -> None:
         believe_at(belief, d.obj, d.pose)
 
 
-class Builder:
+class Builder(PlanBuilder):
+    merged = MERGED
+
     def __init__(
         self, config: SceneConfig, problem: Problem, plan: Plan, exploration: ExplorationConfig
     ) -> None:
@@ -86,68 +84,32 @@ class Builder:
         self.x = exploration
         self.sem = Semantics(problem.domain, {}, {}, strict_costs=False)
 
-    # ------------------------------------------------------------------ specs
+    @property
+    def max_samples(self) -> int:
+        return self.x.max_samples
 
-    def specs(self) -> list[SubtreeSpec]:
-        steps = list(self.plan.steps)
-        out: list[SubtreeSpec] = []
-        i = 0
-        while i < len(steps):
-            merge = (
-                steps[i].action == "move_base"
-                and i + 1 < len(steps)
-                and steps[i + 1].action in MERGED
-            )
-            idx = (i, i + 1) if merge else (i,)
-            out.append(self.spec(idx, steps[idx[-1]], merge))
-            i += len(idx)
-        return out
+    def forget_object(self, belief: Belief, obj: str) -> None:
+        believe_at(belief, obj, None)
 
-    def spec(self, idx: tuple[int, ...], step: PlanStep, merged: bool) -> SubtreeSpec:
+    def recipe(self, step: PlanStep) -> Recipe:
         recipes: dict[str, Callable[[PlanStep], Recipe]] = {
             "pick": self.pick,
             "place": self.place,
             "scan_table": self.scan,
             "move_base": self.move,
         }
-        dims, subs = recipes.get(step.action, self.unsupported)(step)
-        prefix = "move-and-" if merged else ""
-        shown = [a if not a.startswith("#") else "?" for a in step.args]
-        steps = [self.plan.steps[k] for k in idx]
-        return SubtreeSpec(
-            label=f"{prefix}{step.action} {' '.join(shown)}".strip(),
-            steps=idx,
-            action=prefix + step.action,
-            args=tuple(shown),
-            fixed={},
-            dims=dims,
-            sub_actions=subs,
-            max_samples=self.x.max_samples,
-            on_success=self._effects(steps),
-            on_failure=self._forget(step),
-            atoms=self._achieves(steps),
-        )
+        return recipes.get(step.action, self.unsupported)(step)
+
+    def after_step(self, step: PlanStep, v: Values, ctx: Context) -> None:
+        """A placed object rests where it was released, a little below the spot."""
+        if step.action == "place" and isinstance(v.get("spot"), ObjectPose):
+            spot: ObjectPose = v["spot"]
+            rest = ObjectPose(spot.region, spot.x, spot.y, spot.z - self.x.drop)
+            ctx.belief.values[step.args[1]] = rest
+
+    # ------------------------------------------------------------------ specs
 
     # ------------------------------------------------------------------ pieces
-
-    def _stream(self, name: str, inputs: tuple[Any, ...]) -> Iterator[Any]:
-        for out in self.problem.bound_streams[name].outputs(inputs):
-            yield out[0]
-
-    def _precondition(self, step: PlanStep) -> Constraint:
-        last: dict[str, Formula] = {}
-
-        def check(v: Values, ctx: Context) -> str | None:
-            lit = failing_literal(self.sem, ctx.belief, step, self.problem, self.plan)
-            if lit is None:
-                return None
-            last["lit"] = lit
-            return f"{lit} does not hold in what the robot perceives"
-
-        def atom(v: Values) -> Any:
-            return last.get("lit", Atom("precondition", (step.action,)))
-
-        return Constraint("Precondition", check, atom)
 
     def _view_dim(self, region: str) -> Dimension:
         def sample(v: Values) -> Iterator[BaseConf]:
@@ -364,53 +326,6 @@ class Builder:
         return (), (SubAction(step.action, run),)
 
     # ------------------------------------------------------------------ belief updates
-
-    def _achieves(self, steps: list[PlanStep]) -> tuple[Atom, ...]:
-        out: list[Atom] = []
-        for st in steps:
-            action = self.problem.domain.action(st.action)
-            sub = Substitution(dict(zip((p.name for p in action.params), st.args, strict=True)))
-            out += [sub.atom(a) for add, a in effect_atoms(action.effects) if add]
-        return tuple(out)
-
-    def _effects(self, steps: list[PlanStep]) -> Callable[[Values, Context], None]:
-        def apply(v: Values, ctx: Context) -> None:
-            for st in steps:
-                for ref in st.deferred:
-                    if ref.stream in ("inverse-kinematics", "sample-view"):
-                        base = v.get("base", v.get("view_base"))
-                        ctx.belief.values.update(dict.fromkeys(ref.outputs, base))
-                        ctx.belief.facts |= {Atom("bconf", (o,)) for o in ref.outputs}
-                self._adopt(st, ctx)
-                action = self.problem.domain.action(st.action)
-                state = self.sem.state(ctx.belief.facts | self.plan.certified)
-                facts, _ = self.sem.apply(action, st.args, state)
-                changed = {a.predicate for _, a in effect_atoms(action.effects)}
-                keep = {a for a in ctx.belief.facts if a.predicate not in changed}
-                ctx.belief.facts = keep | {a for a in facts if a.predicate in changed}
-                if st.action == "place" and isinstance(v.get("spot"), ObjectPose):
-                    spot: ObjectPose = v["spot"]
-                    rest = ObjectPose(spot.region, spot.x, spot.y, spot.z - self.x.drop)
-                    ctx.belief.values[st.args[1]] = rest
-
-        return apply
-
-    def _adopt(self, st: PlanStep, ctx: Context) -> None:
-        for name in st.args:
-            value = self.plan.objects.get(name)
-            if value is None or name in ctx.belief.values or name in self.problem.objects:
-                continue
-            ctx.belief.values[name] = value
-            ctx.belief.facts |= {
-                a for a in self.plan.certified if a.predicate in _ADOPTED and name in a.args
-            }
-
-    def _forget(self, step: PlanStep) -> Callable[[Failure, Context], None]:
-        def forget(failure: Failure, ctx: Context) -> None:
-            if failure.constraint.name == "Detected" and step.args:
-                believe_at(ctx.belief, step.args[0], None)
-
-        return forget
 
 
 def build_specs(

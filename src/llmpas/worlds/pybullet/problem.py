@@ -39,28 +39,11 @@ def static_facts(config: SceneConfig) -> set[Atom]:
 
 def believe_at(belief: Belief, obj: str, pose: ObjectPose | None) -> None:
     """Believe ``obj`` rests at ``pose`` (None: its whereabouts are unknown)."""
-    old = {
-        a
-        for a in belief.facts
-        if a.predicate in ("atpose", "supported", "pose") and a.args[0] == obj
-    }
-    belief.facts -= old
-    if pose is None:
-        return
-    p = belief.name(f"p_{obj}", pose)
-    belief.facts |= {
-        Atom("pose", (obj, p)),
-        Atom("atpose", (obj, p)),
-        Atom("supported", (obj, p, pose.region)),
-    }
+    belief.rests_at(obj, pose)
 
 
 def believed_pose(belief: Belief, obj: str) -> ObjectPose | None:
-    for a in belief.facts:
-        if a.predicate == "atpose" and a.args[0] == obj:
-            value = belief.values.get(a.args[1])
-            return value if isinstance(value, ObjectPose) else None
-    return None
+    return belief.pose_of(obj, ObjectPose)
 
 
 def believed_base(belief: Belief) -> BaseConf | None:
