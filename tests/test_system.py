@@ -166,6 +166,27 @@ def test_a_search_that_finds_nothing_goes_back_to_the_llm_with_the_place_marked(
     assert "places not searched yet for cube: table2_left, table2_right, drawer2" in second
 
 
+def test_searched_places_and_rejected_goals_are_left_out_of_the_decoding() -> None:
+    from tests.reasoning.test_grammar import language, read_grammar
+
+    llm = Scripted("Goals: (and (scanned fridge))")  # unreachable: no action scans a fridge
+    result = run_loop("object-loss-table", llm, LoopConfig(max_rounds=1))
+    assert not result.success
+
+    def literals(grammar: str) -> str:  # the goal rules, without the free-text reasoning line
+        return "\n".join(x for x in grammar.splitlines() if not x.startswith(("root", "reason")))
+
+    first, *repairs = [read_grammar(literals(r.grammar)) for r in llm.requests if r.grammar]
+    offered = language(first, ("ref", "atom"))
+    # table1_right was searched during execution: neither spelling of that search is offered
+    assert "(scanned table1_right)" not in offered and "(on cube table1_right)" not in offered
+    assert "(scanned table2_right)" in offered and "(scanned fridge)" in offered
+    for grammar in repairs:  # the rejected goal cannot be repeated in a repair
+        assert "(scanned fridge)" not in language(grammar, ("ref", "atom"))
+        assert "(scanned table2_right)" in language(grammar, ("ref", "atom"))
+    assert len(repairs) == LoopConfig().method.repairs
+
+
 CASSETTES = Path(__file__).parent / "data" / "cassettes" / "qwen1.5b"
 
 

@@ -184,6 +184,7 @@ def _cmd_bench_planning_time(args: argparse.Namespace, console: Console) -> int:
             max_time=args.max_time,
             sizes=tuple(args.sizes) if args.sizes else None,
             out_dir=Path(args.out),
+            jobs=args.jobs,
         )
     except ValueError as e:
         raise CliError(str(e)) from None
@@ -196,7 +197,9 @@ def _cmd_bench_perturbation(args: argparse.Namespace, console: Console) -> int:
     from llmpas.experiments.perturbation import PerturbationConfig, run_perturbation
 
     try:
-        config = PerturbationConfig(episodes=args.episodes, seed=args.seed, out_dir=Path(args.out))
+        config = PerturbationConfig(
+            episodes=args.episodes, seed=args.seed, out_dir=Path(args.out), jobs=args.jobs
+        )
     except ValueError as e:
         raise CliError(str(e)) from None
     _, files = run_perturbation(config, console)
@@ -213,6 +216,12 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     pt.add_argument("--trials", type=int, default=5)
     pt.add_argument("--max-time", type=float, default=60.0, help="seconds per planning run")
     pt.add_argument("--out", default="results/planning-time")
+    pt.add_argument(
+        "--jobs",
+        type=int,
+        default=1,
+        help="parallel processes (> 1: timings are contended; results cached under OUT/cache)",
+    )
     pt.set_defaults(handler=_cmd_bench_planning_time)
     pe = bsub.add_parser(
         "perturbation",
@@ -221,9 +230,22 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     pe.add_argument("--episodes", type=int, default=200)
     pe.add_argument("--seed", type=int, default=0)
     pe.add_argument("--out", default="results/perturbation")
+    pe.add_argument(
+        "--jobs", type=int, default=1, help="parallel processes (results cached under OUT/cache)"
+    )
     pe.set_defaults(handler=_cmd_bench_perturbation)
     _add_bench_blocksworld(bsub)
     _add_bench_prompting(bsub)
+    _add_bench_all(bsub)
+
+
+def _add_bench_all(bsub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """``llmpas bench all``: every experiment with one backend (each step is one command)."""
+    from llmpas.experiments import everything
+
+    p = bsub.add_parser("all", help="every experiment with one LLM backend, one after another")
+    everything.add_arguments(p)
+    p.set_defaults(handler=_one_line_errors(lambda a, c: everything.command(a, c, main)))
 
 
 def _add_bench_prompting(bsub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -477,6 +499,7 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
 
 
 def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    from llmpas.experiments.jobs import add_llm_argument
     from llmpas.reasoning.methods import METHODS
 
     p = sub.add_parser("run", help="the closed loop: plan, execute, reason about anomalies")
@@ -492,12 +515,7 @@ def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     )
     p.add_argument("--gui", action="store_true", help="PyBullet: open the simulator window")
     p.add_argument("--no-llm", action="store_true", help="PyBullet: plan and execute once")
-    p.add_argument(
-        "--llm",
-        default="llama-cpp",
-        help="oracle | replay:DIR | openai:MODEL[@BASE_URL] | llama-cpp[:PATH] "
-        "(default: the offline model)",
-    )
+    add_llm_argument(p)
     p.add_argument(
         "--method",
         default="flp",

@@ -218,7 +218,9 @@ class _Loop:
                 self.remember(report)
             sit = self.world.situation(report, self.history())
             t = time.perf_counter()
-            proposal = propose(sit, backend, self.world.vocabulary, self.method, self.check)
+            proposal = propose(
+                sit, backend, self.world.vocabulary, self.method, self.check, self.exhausted()
+            )
             self.llm_time += time.perf_counter() - t
             self.rounds[-1] = replace(rnd, proposal=proposal)
             if not proposal.ok:
@@ -265,46 +267,67 @@ class _Loop:
     def check(self, parse: GoalParse) -> GoalParse:
         """Already-true goals are dropped; repeats of exhausted searches and of attempts that
         did not help, and unreachable goals, are rejected with feedback."""
+        raw = parse.goals
         parse = self.drop_true(self.as_searches(parse))
         if not parse.ok:
-            return parse
+            return replace(parse, rejected=raw)
         errors = []
+        bad = []
         for g in parse.goals:
             if isinstance(g, Atom) and g.predicate == "scanned":
                 for obj, regions in self.searched.items():
                     if g.args[0] in regions:
+                        bad.append(g)
                         errors.append(
                             f"{g}: {g.args[0]} was already searched for {obj} from "
                             "several positions without finding it; look elsewhere"
                             + self.not_searched(obj, regions)
                         )
         if errors:
-            return rejected(parse, GoalStatus.REPEATED, errors)
+            culprits = [r for r in raw if self.as_search(r) in bad]
+            return rejected(parse, GoalStatus.REPEATED, errors, culprits)
         parse = self.reachable(parse)
+        if not parse.ok:
+            culprits = [r for r in raw if self.as_search(r) in parse.rejected]
+            return replace(parse, rejected=tuple(culprits))
         key = frozenset(map(str, parse.goals))
-        if parse.ok and key in self.tried:
+        if key in self.tried:
             errors = [f"{' '.join(sorted(key))} was already tried and did not help"]
-            return rejected(parse, GoalStatus.REPEATED, errors)
+            return rejected(parse, GoalStatus.REPEATED, errors, raw if len(raw) == 1 else ())
         return parse
+
+    def exhausted(self) -> tuple[Literal, ...]:
+        """Searches that cannot help (places already searched for a lost object), in both
+        spellings: ``(scanned P)`` and ``(on X P)``; left out of the LLM's decoding."""
+        out: list[Literal] = []
+        for obj, regions in self.searched.items():
+            if self.world.lost(obj):
+                for place in sorted(regions):
+                    out += [Atom("scanned", (place,)), Atom("on", (obj, place))]
+        return tuple(out)
 
     def as_searches(self, parse: GoalParse) -> GoalParse:
         """``(on X P)`` for a lost object X and a place P the robot can search is read as the
         hypothesis it states: look at P, ``(scanned P)`` (no plan can put X anywhere before it
         is found)."""
-        places = set(self.world.search_places())
         goals: list[Literal] = []
         notes = list(parse.notes)
         for g in parse.goals:
-            lost = isinstance(g, Atom) and g.predicate == "on" and self.world.lost(g.args[0])
-            if lost and isinstance(g, Atom) and g.args[1] in places:
-                search = Atom("scanned", (g.args[1],))
+            search = self.as_search(g)
+            if search != g and isinstance(g, Atom):
                 notes.append(f"read {g} as {search}: where {g.args[0]} is, is unknown")
-                g = search
-            if g not in goals:
-                goals.append(g)
+            if search not in goals:
+                goals.append(search)
         if goals == list(parse.goals):
             return parse
         return GoalParse(parse.status, tuple(goals), parse.errors, parse.source, tuple(notes))
+
+    def as_search(self, g: Literal) -> Literal:
+        """``(scanned P)`` for ``(on X P)`` with X lost and P a place to search; else ``g``."""
+        lost = isinstance(g, Atom) and g.predicate == "on" and self.world.lost(g.args[0])
+        if lost and isinstance(g, Atom) and g.args[1] in self.world.search_places():
+            return Atom("scanned", (g.args[1],))
+        return g
 
     def drop_true(self, parse: GoalParse) -> GoalParse:
         """Goals the robot believes already hold are dropped (all of them: rejected)."""
@@ -332,6 +355,7 @@ class _Loop:
                 parse,
                 GoalStatus.UNREACHABLE,
                 [self.why_unreachable(g) for g in bad],
+                bad,
             )
         if len(ok) > 1 and not self.plan(And(tuple(ok)))[0].solved:
             return rejected(

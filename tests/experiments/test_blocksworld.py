@@ -69,6 +69,8 @@ def test_copal_feeds_the_failure_back_and_succeeds_in_round_two() -> None:
     assert second[-2].role == "assistant" and second[-2].content == WRONG
     assert "failed: step 3 (pickup b2): precondition (clear b2) is false" in second[-1].content
     assert [t.tag for t in attempt.turns] == ["plan", "correction-1"]
+    # the first plan is greedy; a correction samples with its own seed (greedy repeats the plan)
+    assert [(r.temperature, r.seed) for r in llm.requests] == [(0.0, 0), (0.7, 1)]
 
 
 def test_copal_reports_syntax_errors_and_stops_after_its_rounds() -> None:

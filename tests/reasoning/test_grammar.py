@@ -191,6 +191,54 @@ def test_strings_built_from_the_vocabulary_are_in_the_grammar_and_parse() -> Non
         assert r.status in (GoalStatus.OK, GoalStatus.CONTRADICTORY)
 
 
+@pytest.mark.parametrize(
+    "exclude",
+    [
+        [Atom("on", ("cube", "bowl"))],
+        [Not(Atom("holding", ("cube",)))],
+        [Atom("on", ("cube", "sink")), Not(Atom("on", ("bowl", "bowl"))), Atom("handempty")],
+    ],
+)
+def test_excluded_literals_are_exactly_what_the_grammar_leaves_out(exclude: list[Literal]) -> None:
+    rules = read_grammar(gbnf(TINY, max_goals=1, exclude=exclude))
+    lits = {str(lit) for lit in all_literals(TINY)}
+    assert language(rules, ("ref", "lit")) == lits - set(map(str, exclude))
+
+
+def test_excluding_every_grounding_of_a_predicate_drops_it() -> None:
+    vocab = Vocabulary.of({"scanned": (["t1", "t2"],), "holding": (["cube"],)})
+    gone = [Atom("scanned", ("t1",)), Atom("scanned", ("t2",))]
+    rules = read_grammar(gbnf(vocab, max_goals=1, exclude=gone))
+    assert language(rules, ("ref", "lit")) == {
+        "(holding cube)",
+        "(not (holding cube))",
+        "(not (scanned t1))",
+        "(not (scanned t2))",
+    }
+    rules = read_grammar(gbnf(vocab, max_goals=1, exclude=[Atom("holding", ("cube",)), *gone]))
+    assert language(rules, ("ref", "lit")) == {
+        "(not (holding cube))",
+        "(not (scanned t1))",
+        "(not (scanned t2))",
+    }
+    everything = [*all_literals(vocab)]
+    with pytest.raises(ValueError, match="every goal literal is excluded"):
+        gbnf(vocab, exclude=everything)
+
+
+def test_exclusions_beyond_the_grounding_limit_leave_the_predicate_open() -> None:
+    from llmpas.reasoning.grammar import MAX_GROUNDINGS
+
+    objects = [f"o{i}" for i in range(MAX_GROUNDINGS + 1)]
+    vocab = Vocabulary.of({"at": (objects,)})
+    rules = read_grammar(gbnf(vocab, max_goals=1, exclude=[Atom("at", ("o1",))]))
+    assert language(rules, ("ref", "lit")) == {str(lit) for lit in all_literals(vocab)}
+
+
+def test_no_exclusion_gives_the_same_grammar() -> None:
+    assert gbnf(HOUSEHOLD, reasoning=200, exclude=()) == gbnf(HOUSEHOLD, reasoning=200)
+
+
 def test_gbnf_escapes_string_literals() -> None:
     from llmpas.reasoning.grammar import _literal
 
@@ -266,6 +314,8 @@ def test_llama_cpp_accepts_the_grammar(reasoning: int) -> None:  # pragma: no co
     import llama_cpp
 
     assert llama_cpp.LlamaGrammar.from_string(gbnf(HOUSEHOLD, reasoning=reasoning)) is not None
+    excluded = gbnf(HOUSEHOLD, reasoning=reasoning, exclude=all_literals(HOUSEHOLD)[:7])
+    assert llama_cpp.LlamaGrammar.from_string(excluded) is not None
 
 
 @pytest.mark.skipif(importlib.util.find_spec("llama_cpp") is None, reason="llama_cpp not installed")

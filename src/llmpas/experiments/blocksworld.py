@@ -42,7 +42,7 @@ from llmpas.experiments.blocks.tasks import (
     read_tasks,
     reference_plan,
 )
-from llmpas.experiments.jobs import Job, backend, fingerprint, run_jobs
+from llmpas.experiments.jobs import Job, add_llm_argument, backend, fingerprint, run_jobs
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.reasoning.llm import LLM
 from llmpas.reasoning.methods import template
@@ -321,14 +321,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--count", type=int, default=20, help="generated instances per size")
     p.add_argument("--seed", type=int, default=0, help="first generator seed")
     p.add_argument("--problems", help="a folder of PDDL problem files instead of generated ones")
-    p.add_argument(
-        "--llm",
-        default="llama-cpp",
-        help="oracle (Fast Downward's plan: an upper bound) | replay:DIR | "
-        "openai:MODEL[@BASE_URL] | llama-cpp[:PATH] (default: the offline model)",
-    )
+    add_llm_argument(p, "oracle (Fast Downward's plan: an upper bound)")
     p.add_argument("--record", help="record the LLM's answers into this cassette folder")
     p.add_argument("--rounds", type=int, default=3, help="COPAL: plan answers at most")
+    p.add_argument(
+        "--correction-temperature",
+        type=float,
+        default=Settings.correction_temperature,
+        help="COPAL: sampling temperature of the corrections (the first plan is greedy)",
+    )
     p.add_argument("--decoding", default="grammar", choices=DECODINGS)
     p.add_argument("--jobs", type=int, default=1, help="tasks run in parallel processes")
     p.add_argument("--out", default="results/blocksworld", help="folder for tables and plot")
@@ -344,7 +345,11 @@ def command(args: argparse.Namespace, console: Console) -> int:
         problems=Path(args.problems) if args.problems else None,
         llm=args.llm,
         record=Path(args.record) if args.record else None,
-        settings=Settings(rounds=args.rounds, decoding=args.decoding),
+        settings=Settings(
+            rounds=args.rounds,
+            decoding=args.decoding,
+            correction_temperature=args.correction_temperature,
+        ),
         jobs=args.jobs,
         out_dir=Path(args.out),
     )

@@ -9,6 +9,7 @@ never reuses stale results.
 
 from __future__ import annotations
 
+import argparse
 import hashlib
 import json
 import logging
@@ -62,6 +63,16 @@ def backend(spec: str, record: str | None = None) -> Any:
         return _llm(spec, record)
     except CliError as err:
         raise ValueError(str(err)) from None
+
+
+def add_llm_argument(p: argparse.ArgumentParser, oracle: str = "oracle") -> None:
+    """The ``--llm`` option every experiment takes (``oracle`` says what the oracle is there)."""
+    p.add_argument(
+        "--llm",
+        default="llama-cpp",
+        help=f"{oracle} | replay:DIR | openai:MODEL[@BASE_URL] | llama-cpp[:PATH] "
+        "(default: the offline model)",
+    )
 
 
 def fingerprint(value: Any, length: int = 10) -> str:

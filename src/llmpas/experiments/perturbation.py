@@ -2,21 +2,25 @@
 odometry noise, misdetections, a first grasp that slips, the object nudged or moved to the other
 part of the same table — executed without any LLM, once with CSubBTs (resampling, backtracking)
 and once as a flat plan (every dimension gets one value: no resampling), in one run.
+
+Each (episode, mode) is a cached job (:mod:`llmpas.experiments.jobs`): an interrupted run
+resumes, ``jobs > 1`` runs episodes in parallel processes, and a changed episode or setting never
+reuses a stale result. Writes ``perturbation.csv``, ``perturbation.md`` and ``perturbation.png``.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import py_trees
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from llmpas.files import atomic_write, write_csv
+from llmpas.experiments.jobs import Job, fingerprint, run_jobs
+from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning import PlannerConfig
 from llmpas.worlds.household.decomposition import ExplorationConfig
 from llmpas.worlds.household.run import RunConfig, run_scenario
@@ -27,6 +31,7 @@ FLAT = ExplorationConfig(view_bases=1, grasps=1, base_samples=1, max_samples=10)
 OBJECTS = ("cube", "apple", "mug")
 SOURCES = ("table1_left", "table1_right")
 TARGETS = ("table2_left", "table2_right")
+KINDS = ("pose", "miss", "slip", "nudge", "moved-on-table")  # plot order of disturbance kinds
 
 
 @dataclass(frozen=True)
@@ -35,10 +40,13 @@ class PerturbationConfig:
     seed: int = 0
     out_dir: Path = Path("results/perturbation")
     max_time: float = 30.0  # planning limit per episode
+    jobs: int = 1  # parallel processes
 
     def __post_init__(self) -> None:
         if self.episodes < 1:
             raise ValueError(f"episodes must be >= 1, got {self.episodes}")
+        if self.jobs < 1:
+            raise ValueError(f"jobs must be >= 1, got {self.jobs}")
 
 
 @dataclass(frozen=True)
@@ -52,6 +60,15 @@ class Outcome:
     time: float
 
 
+@dataclass(frozen=True)
+class Payload:
+    """One job: an episode in one mode (picklable: it may run in another process)."""
+
+    episode: int
+    mode: str
+    config: PerturbationConfig
+
+
 def _xy(
     rng: np.random.Generator, rect: tuple[float, float, float, float], m: float = 0.12
 ) -> tuple[float, float]:
@@ -61,8 +78,9 @@ def _xy(
     )
 
 
-def make_episode(k: int, seed: int) -> tuple[Scenario, str]:
-    """Episode ``k``: an object to put into the bowl, with random tolerable disturbances."""
+def episode_data(k: int, seed: int) -> tuple[dict[str, Any], str]:
+    """Episode ``k`` as scenario data (an object to put into the bowl, with random tolerable
+    disturbances) and the disturbances shown, joined by ``+``."""
     from llmpas.worlds.household.layout import kitchen
 
     rng = np.random.default_rng([seed, k])
@@ -120,23 +138,82 @@ def make_episode(k: int, seed: int) -> tuple[Scenario, str]:
         "task": {"goal": f"(On {obj} bowl)"},
         "events": events,
     }
-    return Scenario.from_dict(data, source=f"perturbation[{k}]"), "+".join(shown)
+    return data, "+".join(shown)
+
+
+def make_episode(k: int, seed: int) -> tuple[Scenario, str]:
+    """Episode ``k``: an object to put into the bowl, with random tolerable disturbances."""
+    data, shown = episode_data(k, seed)
+    return Scenario.from_dict(data, source=f"perturbation[{k}]"), shown
+
+
+def run_config(mode: str, config: PerturbationConfig) -> RunConfig:
+    return RunConfig(
+        planner=PlannerConfig(max_time=config.max_time),
+        exploration=ExplorationConfig() if mode == "csubbt" else FLAT,
+    )
 
 
 def run_episode(k: int, mode: str, config: PerturbationConfig) -> Outcome:
     scenario, shown = make_episode(k, config.seed)
-    run = RunConfig(
-        planner=PlannerConfig(max_time=config.max_time),
-        exploration=ExplorationConfig() if mode == "csubbt" else FLAT,
-    )
     py_trees.blackboard.Blackboard.clear()
-    r = run_scenario(scenario, run)
+    r = run_scenario(scenario, run_config(mode, config))
     ep = r.episode
     status = ep.status.value if ep is not None else f"plan-{r.plan.status.value}"
     total = r.plan.stats.total_time + (ep.events[-1].t if ep and ep.events else 0.0)
     return Outcome(
         k, mode, shown, status, ep.retries if ep else 0, ep.ticks if ep else 0, round(total, 3)
     )
+
+
+# ----------------------------------------------------------------------------------- jobs
+
+
+def run_job(payload: Payload) -> dict[str, Any]:
+    """Run one episode in one mode (a module-level function: it may run in another process)."""
+    return asdict(run_episode(payload.episode, payload.mode, payload.config))
+
+
+def jobs_for(config: PerturbationConfig) -> list[Job[Payload]]:
+    """One job per (episode, mode), episode by episode; the key fingerprints the episode's
+    scenario data and the run configuration of its mode."""
+    out = []
+    for k in range(config.episodes):
+        data, shown = episode_data(k, config.seed)
+        for mode in MODES:
+            settings = asdict(run_config(mode, config))
+            digest = fingerprint([config.seed, k, data, shown, mode, settings])
+            out.append(
+                Job(f"{mode}/seed{config.seed}/episode{k}/{digest}", Payload(k, mode, config))
+            )
+    return out
+
+
+def _outcome(result: dict[str, Any]) -> Outcome:
+    names = {f.name for f in fields(Outcome)}
+    return Outcome(**{k: v for k, v in result.items() if k in names})
+
+
+def run_perturbation(
+    config: PerturbationConfig, console: Console | None = None
+) -> tuple[list[Outcome], list[Path]]:
+    """Run (or resume) every (episode, mode) not cached yet; write the CSV, table and plot."""
+    console = console or Console()
+    results = run_jobs(
+        jobs_for(config),
+        run_job,
+        config.out_dir / "cache",
+        workers=config.jobs,
+        description="perturbation",
+        console=console,
+    )
+    outcomes = [_outcome(r) for r in results]
+    files = _write(outcomes, config)
+    console.print(summary(outcomes))
+    return outcomes, files
+
+
+# -------------------------------------------------------------------------------- outputs
 
 
 def summary(outcomes: Sequence[Outcome]) -> str:
@@ -151,27 +228,66 @@ def summary(outcomes: Sequence[Outcome]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def run_perturbation(
-    config: PerturbationConfig, console: Console | None = None
-) -> tuple[list[Outcome], list[Path]]:
-    console = console or Console()
-    outcomes: list[Outcome] = []
-    jobs = [(k, m) for k in range(config.episodes) for m in MODES]
-    columns = (
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
+def kinds(disturbances: str) -> tuple[str, ...]:
+    """The disturbance kinds of an episode (``"pose 0.011+miss 0.0+slip"`` -> pose, slip): a
+    part with a value is a kind only when the value is not zero."""
+    out = []
+    for part in disturbances.split("+"):
+        name, _, value = part.strip().partition(" ")
+        if name and (not value or float(value) != 0.0):
+            out.append(name)
+    return tuple(out)
+
+
+def by_kind(outcomes: Sequence[Outcome]) -> dict[str, dict[str, tuple[int, int]]]:
+    """Group (``all``, then each disturbance kind present) -> mode -> (successes, episodes)."""
+    present = {k for o in outcomes for k in kinds(o.disturbances)}
+    order = ["all", *(k for k in KINDS if k in present), *sorted(present - set(KINDS))]
+    table: dict[str, dict[str, tuple[int, int]]] = {}
+    for group in order:
+        table[group] = {}
+        for mode in MODES:
+            mine = [
+                o
+                for o in outcomes
+                if o.mode == mode and (group == "all" or group in kinds(o.disturbances))
+            ]
+            table[group][mode] = (sum(o.status == "success" for o in mine), len(mine))
+    return table
+
+
+def plot(outcomes: Sequence[Outcome], config: PerturbationConfig, path: Path) -> None:
+    """Grouped bars: success rate of each mode per disturbance kind, episodes per bar."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    table = by_kind(outcomes)
+    groups = list(table)
+    colors = {"csubbt": "tab:blue", "flat": "tab:orange"}
+    width = 0.8 / len(MODES)
+    fig, ax = plt.subplots(figsize=(max(5.0, 1.3 * len(groups) + 2.0), 4.2))
+    for i, mode in enumerate(MODES):
+        cells = [table[g][mode] for g in groups]
+        xs = [g + (i - (len(MODES) - 1) / 2) * width for g in range(len(groups))]
+        rates = [ok / n if n else 0.0 for ok, n in cells]
+        bars = ax.bar(xs, rates, width, color=colors[mode], label=mode)
+        ax.bar_label(bars, labels=[f"n={n}" for _, n in cells], fontsize=7, padding=2)
+    ax.set_xticks(range(len(groups)), groups)
+    ax.set_ylim(0.0, 1.25)  # headroom for the labels and the legend
+    ax.set_yticks([i / 5 for i in range(6)])
+    ax.set_ylabel("success rate")
+    ax.set_xlabel("disturbance kind (n = episodes)")
+    ax.set_title(
+        f"Perturbation: {config.episodes} seeded episodes (seed {config.seed}), no LLM",
+        fontsize=10,
     )
-    with Progress(*columns, console=console) as progress:
-        task = progress.add_task("perturbation", total=len(jobs))
-        for k, mode in jobs:
-            progress.update(task, description=f"episode {k} ({mode})")
-            outcomes.append(run_episode(k, mode, config))
-            progress.advance(task)
-    files = _write(outcomes, config)
-    console.print(summary(outcomes))
-    return outcomes, files
+    ax.grid(True, axis="y", alpha=0.3)
+    ax.legend(loc="upper right", ncols=len(MODES), fontsize=8)
+    fig.tight_layout()
+    save_figure(fig, path)
+    plt.close(fig)
 
 
 def _write(outcomes: Sequence[Outcome], config: PerturbationConfig) -> list[Path]:
@@ -185,4 +301,6 @@ def _write(outcomes: Sequence[Outcome], config: PerturbationConfig) -> list[Path
         f"Perturbation benchmark: {config.episodes} seeded episodes (seed {config.seed}), "
         "no LLM.\n\n" + summary(outcomes),
     )
-    return [path, md]
+    png = out / "perturbation.png"
+    plot(outcomes, config, png)
+    return [path, md, png]

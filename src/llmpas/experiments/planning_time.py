@@ -3,21 +3,30 @@
 *Deferred*: streams marked deferred (e.g. BaseMotion, Kin) are assumed at planning time and left
 to the executor. *Eager*: every stream is evaluated while planning. Both use the same algorithm,
 the same problems (one seed per trial) and the same limits, in one run, so their ratio is fair.
+
+Each trial is a cached job (:mod:`llmpas.experiments.jobs`): an interrupted run resumes and a
+changed setting never reuses a stale result. ``jobs > 1`` runs trials in parallel processes, which
+then compete for the CPU: their timings are contended (a warning is logged and the table says how
+many jobs measured its timings).
 """
 
 from __future__ import annotations
 
+import logging
 import statistics
 from collections.abc import Iterable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
+from typing import Any
 
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from llmpas.examples import get_example
+from llmpas.experiments.jobs import Job, fingerprint, run_jobs
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning import PlannerConfig, solve
+
+log = logging.getLogger(__name__)
 
 MODES = ("deferred", "eager")
 
@@ -30,10 +39,13 @@ class BenchConfig:
     sizes: tuple[int, ...] | None = None  # None: each example's own sizes
     out_dir: Path = Path("results/planning-time")
     algorithm: str = "focused"
+    jobs: int = 1  # parallel processes (> 1: contended timings)
 
     def __post_init__(self) -> None:
         if self.trials < 1:
             raise ValueError(f"trials must be >= 1, got {self.trials}")
+        if self.jobs < 1:
+            raise ValueError(f"jobs must be >= 1, got {self.jobs}")
         if self.max_time <= 0:
             raise ValueError(f"max_time must be > 0, got {self.max_time}")
         if self.sizes is not None and (not self.sizes or min(self.sizes) < 1):
@@ -86,18 +98,30 @@ class Report:
     files: tuple[Path, ...] = field(default_factory=tuple)
 
 
+@dataclass(frozen=True)
+class Payload:
+    """One job: one trial of an example at one size in one mode (picklable)."""
+
+    example: str
+    size: int
+    mode: str
+    trial: int
+    config: BenchConfig
+
+
+def planner_config(mode: str, trial: int, config: BenchConfig) -> PlannerConfig:
+    return PlannerConfig(
+        algorithm=config.algorithm,  # type: ignore[arg-type]
+        defer=(mode == "deferred"),
+        max_time=config.max_time,
+        search_time=config.max_time,
+        seed=trial,
+    )
+
+
 def run_trial(example: str, size: int, mode: str, trial: int, config: BenchConfig) -> Trial:
     problem = get_example(example).make_problem(size, trial)
-    result = solve(
-        problem,
-        PlannerConfig(
-            algorithm=config.algorithm,  # type: ignore[arg-type]
-            defer=(mode == "deferred"),
-            max_time=config.max_time,
-            search_time=config.max_time,
-            seed=trial,
-        ),
-    )
+    result = solve(problem, planner_config(mode, trial, config))
     s = result.stats
     return Trial(
         example,
@@ -130,31 +154,60 @@ def summarise(trials: Sequence[Trial]) -> tuple[Row, ...]:
     return tuple(rows)
 
 
+def run_job(payload: Payload) -> dict[str, Any]:
+    """Run one trial (a module-level function: it may run in another process). The result also
+    records how many jobs ran in parallel while it was timed."""
+    p = payload
+    trial = run_trial(p.example, p.size, p.mode, p.trial, p.config)
+    return {**asdict(trial), "jobs": p.config.jobs}
+
+
+def jobs_for(config: BenchConfig) -> list[Job[Payload]]:
+    """One job per (example, size, trial, mode); the key fingerprints the planner settings."""
+    out = []
+    for ex in config.examples:
+        for size in config.sizes or get_example(ex).sizes:
+            for trial in range(config.trials):
+                for mode in MODES:
+                    settings = asdict(planner_config(mode, trial, config))
+                    digest = fingerprint([ex, size, mode, trial, settings])
+                    key = f"{ex}/size{size}/{mode}/trial{trial}/{digest}"
+                    out.append(Job(key, Payload(ex, size, mode, trial, config)))
+    return out
+
+
+def _trial(result: dict[str, Any]) -> Trial:
+    names = {f.name for f in fields(Trial)}
+    return Trial(**{k: v for k, v in result.items() if k in names})
+
+
 def run_planning_time(config: BenchConfig, console: Console | None = None) -> Report:
+    """Run (or resume) every trial not cached yet; write the CSV, table and plot."""
     console = console or Console()
-    jobs = [
-        (ex, size, mode, trial)
-        for ex in config.examples
-        for size in (config.sizes or get_example(ex).sizes)
-        for trial in range(config.trials)
-        for mode in MODES
-    ]
-    trials: list[Trial] = []
-    columns = (
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
+    if config.jobs > 1:
+        log.warning(
+            "planning-time with %d parallel jobs: timings measured in parallel are contended "
+            "(use --jobs 1 for timings to report)",
+            config.jobs,
+        )
+    results = run_jobs(
+        jobs_for(config),
+        run_job,
+        config.out_dir / "cache",
+        workers=config.jobs,
+        description="planning-time",
+        console=console,
     )
-    with Progress(*columns, console=console, transient=False) as progress:
-        task = progress.add_task("planning-time", total=len(jobs))
-        for ex, size, mode, trial in jobs:
-            progress.update(task, description=f"{ex} size {size} {mode} trial {trial + 1}")
-            trials.append(run_trial(ex, size, mode, trial, config))
-            progress.advance(task)
+    measured = max(int(r.get("jobs", 1)) for r in results)
+    if measured > config.jobs:
+        log.warning(
+            "planning-time: cached timings were measured with %d parallel jobs: contended",
+            measured,
+        )
+    trials = [_trial(r) for r in results]
     rows = summarise(trials)
-    files = write_outputs(trials, rows, config)
-    console.print(markdown_table(rows, config))
+    files = write_outputs(trials, rows, config, measured)
+    console.print(markdown_table(rows, config, measured))
     return Report(tuple(trials), rows, files)
 
 
@@ -162,10 +215,19 @@ def _fmt(x: float | None) -> str:
     return "—" if x is None else f"{x:.2f}"
 
 
-def markdown_table(rows: Iterable[Row], config: BenchConfig) -> str:
+def _jobs_note(jobs: int) -> str:
+    if jobs == 1:
+        return "1 job: trials one at a time"
+    return f"{jobs} parallel jobs: timings contended"
+
+
+def markdown_table(rows: Iterable[Row], config: BenchConfig, jobs: int | None = None) -> str:
+    """The table; ``jobs``: how many parallel jobs measured the timings (default
+    ``config.jobs``)."""
+    jobs = config.jobs if jobs is None else jobs
     lines = [
         f"Initial planning time (median of solved trials, seconds; {config.trials} trials per "
-        f"size, limit {config.max_time:g} s per trial)",
+        f"size, limit {config.max_time:g} s per trial; {_jobs_note(jobs)})",
         "",
         "| example | size | deferred (s) | solved | eager (s) | solved | eager / deferred |",
         "|---|---:|---:|---:|---:|---:|---:|",
@@ -181,14 +243,14 @@ def markdown_table(rows: Iterable[Row], config: BenchConfig) -> str:
 
 
 def write_outputs(
-    trials: Sequence[Trial], rows: Sequence[Row], config: BenchConfig
+    trials: Sequence[Trial], rows: Sequence[Row], config: BenchConfig, jobs: int | None = None
 ) -> tuple[Path, ...]:
     out = config.out_dir
     out.mkdir(parents=True, exist_ok=True)
     csv_path = out / "planning_time.csv"
     write_csv(csv_path, [asdict(t) for t in trials])
     md_path = out / "planning_time.md"
-    atomic_write(md_path, markdown_table(rows, config))
+    atomic_write(md_path, markdown_table(rows, config, jobs))
     png_path = out / "planning_time.png"
     plot(trials, rows, config, png_path)
     return (csv_path, md_path, png_path)

@@ -35,7 +35,7 @@ from typing import Any
 
 from rich.console import Console
 
-from llmpas.experiments.jobs import Job, backend, fingerprint, run_jobs
+from llmpas.experiments.jobs import Job, add_llm_argument, backend, fingerprint, run_jobs
 from llmpas.experiments.suite import (
     HASH_SEEDS,
     SUITE_DIR,
@@ -419,12 +419,7 @@ def _safe(text: str) -> str:
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """The options of ``llmpas bench prompting``."""
-    p.add_argument(
-        "--llm",
-        default="llama-cpp",
-        help="oracle | replay:DIR | openai:MODEL[@BASE_URL] | llama-cpp[:PATH] "
-        "(default: the offline model)",
-    )
+    add_llm_argument(p)
     p.add_argument(
         "--methods",
         nargs="+",

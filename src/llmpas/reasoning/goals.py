@@ -204,7 +204,8 @@ class GoalParse:
     ``goals`` holds the validated literals (empty unless OK); ``errors`` one line per problem,
     written to be fed back to the LLM (empty exactly when OK); ``source`` the part of the text the
     goals were read from; ``notes`` remarks that did not prevent success (dropped goals that
-    already hold).
+    already hold); ``rejected`` the literals a validation turned down (a repair's decoding can
+    leave them out).
     """
 
     status: GoalStatus
@@ -212,6 +213,7 @@ class GoalParse:
     errors: tuple[str, ...]
     source: str = ""
     notes: tuple[str, ...] = ()
+    rejected: tuple[Literal, ...] = ()
 
     @property
     def ok(self) -> bool:

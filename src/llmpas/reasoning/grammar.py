@@ -8,14 +8,22 @@ already hold).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import itertools
+import math
+from collections.abc import Collection, Mapping
 from typing import Any
 
-from llmpas.reasoning.goals import Vocabulary
+from llmpas.language.logic import Atom, Not
+from llmpas.reasoning.goals import Literal, Vocabulary
 from llmpas.reasoning.program import Call
 
 
-def gbnf(vocab: Vocabulary, max_goals: int = 4, reasoning: int = 0) -> str:
+def gbnf(
+    vocab: Vocabulary,
+    max_goals: int = 4,
+    reasoning: int = 0,
+    exclude: Collection[Literal] = (),
+) -> str:
     """A GBNF grammar (root rule ``root``) admitting exactly ``(and LIT+)`` with 1..max_goals
     literals separated by single spaces; ``LIT`` is ``(pred arg...)`` or ``(not (pred arg...))``
     with each argument one of the objects allowed at its position.
@@ -24,33 +32,70 @@ def gbnf(vocab: Vocabulary, max_goals: int = 4, reasoning: int = 0) -> str:
     most that many characters, then ``\nGoals: (and ...)``: a small model can say what it will do
     before the goals are forced (with goals only, it tends to fall back to the task goal).
 
-    Rule names are ``p<i>`` / ``p<i>-a<j>`` so they are valid whatever the predicate names.
+    ``exclude`` lists ground literals the answer must not contain (goals already rejected): a
+    predicate with excluded atoms is spelled out as its remaining groundings (up to
+    :data:`MAX_GROUNDINGS`; beyond that it stays open and the validator rejects the repeat).
+
+    Rule names are ``p<i>`` / ``p<i>-a<j>`` (``n<i>...`` inside ``not``) so they are valid whatever
+    the predicate names.
     """
     _check_max_goals(max_goals)
     if isinstance(reasoning, bool) or not isinstance(reasoning, int) or reasoning < 0:
         raise ValueError(f"reasoning must be a non-negative integer, got {reasoning!r}")
-    names = list(vocab.predicates)
     goals = f'"(and " lit {_optional_more(max_goals - 1)}")"'
     head = (
         ['root ::= "Reasoning: " reason "\\nGoals: " goals', f"reason ::= [^\\n]{{1,{reasoning}}}"]
         if reasoning
         else ["root ::= goals"]
     )
-    rules = [
-        *head,
-        f"goals ::= {goals}",
-        'lit ::= atom | "(not " atom ")"',
-        "atom ::= " + " | ".join(f"p{i}" for i in range(len(names))),
-    ]
+    positive = {g for g in exclude if isinstance(g, Atom)}
+    negative = {g.arg for g in exclude if isinstance(g, Not) and isinstance(g.arg, Atom)}
+    atoms = _atoms("atom", "p", vocab, positive)
+    natoms: list[str] = []
+    inner = "atom" if atoms else ""  # the rule inside (not ...): its own when exclusions differ
+    if negative != positive:
+        natoms = _atoms("natom", "n", vocab, negative)
+        inner = "natom" if natoms else ""
+    lit = (["atom"] if atoms else []) + ([f'"(not " {inner} ")"'] if inner else [])
+    if not lit:
+        raise ValueError("every goal literal is excluded: nothing is left to propose")
+    rules = [*head, f"goals ::= {goals}", "lit ::= " + " | ".join(lit), *atoms, *natoms]
+    return "\n".join(rules) + "\n"
+
+
+MAX_GROUNDINGS = 400
+"""Most groundings of one predicate :func:`gbnf` spells out to leave excluded literals out."""
+
+
+def _atoms(rule: str, prefix: str, vocab: Vocabulary, exclude: set[Atom]) -> list[str]:
+    """``rule ::= <prefix>0 | <prefix>1 ...``, one alternative per predicate, each either open
+    (any allowed object per position) or its groundings minus ``exclude``."""
+    names = list(vocab.predicates)
+    rules: list[str] = []
+    alternatives = []
     for i, name in enumerate(names):
         allowed = vocab.predicates[name]
+        banned = {a.args for a in exclude if a.predicate == name and len(a.args) == len(allowed)}
+        size = math.prod(len(objects) for objects in allowed)
+        if banned and size <= MAX_GROUNDINGS:
+            kept = [args for args in itertools.product(*map(sorted, allowed)) if args not in banned]
+            if kept:
+                alternatives.append(f"{prefix}{i}")
+                text = (_literal("(" + " ".join((name, *args)) + ")") for args in kept)
+                rules.append(f"{prefix}{i} ::= " + " | ".join(text))
+            continue
+        alternatives.append(f"{prefix}{i}")
         parts = [_literal("(" + name)]
         for j in range(len(allowed)):
-            parts += ['" "', f"p{i}-a{j + 1}"]
-        rules.append(f"p{i} ::= " + " ".join([*parts, '")"']))
+            parts += ['" "', f"{prefix}{i}-a{j + 1}"]
+        rules.append(f"{prefix}{i} ::= " + " ".join([*parts, '")"']))
         for j, objects in enumerate(allowed, 1):
-            rules.append(f"p{i}-a{j} ::= " + " | ".join(_literal(o) for o in sorted(objects)))
-    return "\n".join(rules) + "\n"
+            rules.append(
+                f"{prefix}{i}-a{j} ::= " + " | ".join(_literal(o) for o in sorted(objects))
+            )
+    if not alternatives:
+        return []
+    return [f"{rule} ::= " + " | ".join(alternatives), *rules]
 
 
 def skill_gbnf(calls: Mapping[str, Call], vocab: Vocabulary, reasoning: int = 200) -> str:

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import re
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Collection, Iterable, Mapping
 from dataclasses import dataclass, field
 from functools import cache
 from importlib import resources
@@ -190,9 +190,11 @@ def _system() -> Message:
     return Message("system", template("system").substitute().strip())
 
 
-def _constraints(vocab: Vocabulary, config: MethodConfig) -> dict[str, object]:
+def _constraints(
+    vocab: Vocabulary, config: MethodConfig, exclude: Collection[Literal] = ()
+) -> dict[str, object]:
     if config.decoding == "grammar":
-        return {"grammar": gbnf(vocab, reasoning=config.reasoning)}
+        return {"grammar": gbnf(vocab, reasoning=config.reasoning, exclude=exclude)}
     if config.decoding == "schema":
         return {"json_schema": json_schema(vocab)}
     return {}
@@ -209,7 +211,7 @@ _ACTION = re.compile(r"Robot action:\s*(.*)")
 
 
 def _reader(
-    situation: Situation, vocab: Vocabulary, config: MethodConfig
+    situation: Situation, vocab: Vocabulary, config: MethodConfig, exclude: Collection[Literal] = ()
 ) -> tuple[Callable[[str], GoalParse], dict[str, object]]:
     """How the method's answers are read, and how decoding is constrained."""
     if config.method == "progprompt":  # free text: a program cannot be grammar-bound here
@@ -222,7 +224,7 @@ def _reader(
             else {}
         )
         return (lambda text: parse_program(_action(text), situation.calls, vocab)), constrain
-    return (lambda text: parse_goals(text, vocab)), _constraints(vocab, config)
+    return (lambda text: parse_goals(text, vocab)), _constraints(vocab, config, exclude)
 
 
 def _action(text: str) -> str:
@@ -238,8 +240,12 @@ def propose(
     vocab: Vocabulary,
     config: MethodConfig | None = None,
     check: Check | None = None,
+    exclude: Iterable[Literal] = (),
 ) -> Proposal:
-    """Ask ``llm`` for goals with the configured method; parse, validate and repair."""
+    """Ask ``llm`` for goals with the configured method; parse, validate and repair.
+
+    With grammar decoding, the literals in ``exclude`` and every literal a validation rejected
+    in an earlier answer are left out of the grammar: a small model cannot repeat them."""
     config = config or MethodConfig()
     talk = _Conversation(llm, config)
     first_look = ""
@@ -248,11 +254,18 @@ def propose(
         first_look = talk.ask("first-look", [_system(), Message("user", step1)], {}).strip()
     prompt = template(_TEMPLATES[config.method]).substitute(situation.fields(first_look))
     messages = [_system(), Message("user", prompt)]
-    read, constrain = _reader(situation, vocab, config)
+    banned = set(exclude)
+    read, constrain = _reader(situation, vocab, config, _sorted(banned))
     parse = _parse(talk.ask("goals", messages, constrain), read, check)
     repairs = 0
     while not parse.ok and repairs < config.repairs:
         repairs += 1
+        if not banned.issuperset(parse.rejected):
+            banned.update(parse.rejected)
+            try:
+                constrain = _reader(situation, vocab, config, _sorted(banned))[1]
+            except ValueError:  # every literal is excluded: nothing left to ask for
+                break
         messages += [
             Message("assistant", talk.exchanges[-1].response.text),
             Message(
@@ -264,6 +277,10 @@ def propose(
     return Proposal(config.method, parse, tuple(talk.exchanges), repairs, first_look)
 
 
+def _sorted(literals: Iterable[Literal]) -> tuple[Literal, ...]:
+    return tuple(sorted(literals, key=str))
+
+
 def _parse(text: str, read: Callable[[str], GoalParse], check: Check | None) -> GoalParse:
     parse = read(text)
     if parse.ok and check is not None:
@@ -271,7 +288,9 @@ def _parse(text: str, read: Callable[[str], GoalParse], check: Check | None) -> 
     return parse
 
 
-def rejected(parse: GoalParse, status: GoalStatus, errors: list[str]) -> GoalParse:
+def rejected(
+    parse: GoalParse, status: GoalStatus, errors: list[str], literals: Iterable[Literal] = ()
+) -> GoalParse:
     """A copy of ``parse`` turned into a rejection (for extra checks such as the deadlock
-    guard)."""
-    return GoalParse(status, (), tuple(errors), parse.source)
+    guard); ``literals`` are the goals at fault, left out of the repairs' decoding."""
+    return GoalParse(status, (), tuple(errors), parse.source, rejected=tuple(literals))

@@ -155,21 +155,23 @@ def test_a_search_of_the_wrong_table_goes_back_to_the_llm_with_the_places_left()
 CASSETTES = Path(__file__).parents[2] / "data" / "cassettes" / "qwen1.5b-pybullet"
 
 
-def _replayed(seed: int) -> bool:
+def _replayed(scenario: str, seed: int) -> bool:
     from llmpas.reasoning.backends.replay import ReplayBackend
 
     llm = ReplayBackend(CASSETTES, mode="replay")  # the offline model, recorded once
     config = LoopConfig(run=replace(QUIET, seed=seed))
-    result = run_loop("action-blocking", llm, config)
+    result = run_loop(scenario, llm, config)
     proposals = [r.proposal for r in result.rounds if r.proposal]
     assert proposals and all(p.first_look for p in proposals)
     return result.success
 
 
-def test_action_blocking_recovers_with_the_offline_models_recorded_answers() -> None:
-    assert _replayed(0)
+@pytest.mark.parametrize("scenario", ["action-blocking", "object-loss"])
+def test_the_offline_models_recorded_answers_recover(scenario: str) -> None:
+    assert _replayed(scenario, 0)
 
 
 @pytest.mark.slow
-def test_action_blocking_with_the_offline_model_succeeds_in_9_of_10_seeds() -> None:
-    assert sum(_replayed(seed) for seed in range(10)) >= 9
+@pytest.mark.parametrize("scenario", ["action-blocking", "object-loss"])
+def test_the_offline_model_succeeds_in_9_of_10_seeds(scenario: str) -> None:
+    assert sum(_replayed(scenario, seed) for seed in range(10)) >= 9

@@ -59,6 +59,7 @@ class Settings:
     decoding: str = "grammar"  # grammar: a GBNF admitting only plans (llama.cpp)
     temperature: float = 0.0
     seed: int = 0
+    correction_temperature: float = 0.7  # copal's corrections sample: greedy repeats the plan
     look_tokens: int = 100  # flp step 1
     tokens_per_step: int = 12  # plan answers get max_steps * this many tokens
 
@@ -69,8 +70,9 @@ class Settings:
             raise ValueError(
                 f"decoding must be one of {', '.join(DECODINGS)}, got {self.decoding!r}"
             )
-        if not 0.0 <= self.temperature <= 2.0:
-            raise ValueError(f"temperature must be in [0, 2], got {self.temperature}")
+        for name in ("temperature", "correction_temperature"):
+            if not 0.0 <= getattr(self, name) <= 2.0:
+                raise ValueError(f"{name} must be in [0, 2], got {getattr(self, name)}")
         if self.look_tokens < 1 or self.tokens_per_step < 1:
             raise ValueError("look_tokens and tokens_per_step must be >= 1")
 
@@ -134,13 +136,21 @@ class _Talk:
     turns: list[Turn] = field(default_factory=list)
 
     def ask(
-        self, tag: str, messages: Sequence[Message], max_tokens: int, grammar: str | None
+        self,
+        tag: str,
+        messages: Sequence[Message],
+        max_tokens: int,
+        grammar: str | None,
+        correction: int = 0,
     ) -> str:
+        """Corrections (``correction > 0``) sample at the correction temperature with their own
+        seed: under greedy decoding a small model answers feedback with the same plan."""
+        settings = self.settings
         request = Request(
             tuple(messages),
-            temperature=self.settings.temperature,
+            temperature=settings.correction_temperature if correction else settings.temperature,
             max_tokens=max_tokens,
-            seed=self.settings.seed,
+            seed=settings.seed + correction,
             grammar=grammar,
             tag=tag,
         )
@@ -220,7 +230,7 @@ def run_method(method: str, problem: Problem, llm: LLM | None, settings: Setting
     while True:
         rounds += 1
         tag = "plan" if rounds == 1 else f"correction-{rounds - 1}"
-        answer = talk.ask(tag, messages, budget, grammar)
+        answer = talk.ask(tag, messages, budget, grammar, rounds - 1)
         parse = parse_plan(answer, problem.domain, objects)
         syntax_errors += not parse.ok
         verdict = judge(problem, parse)

@@ -1,0 +1,191 @@
+"""``llmpas bench all``: every experiment with one LLM backend, one after another.
+
+Each step is exactly one of the ``llmpas bench ...`` commands (the same options, the same cached
+and resumable results), run with its output folder under ``--out``. A step that fails does not
+stop the others; ``summary.md`` lists every step with its command, outcome, time and files, and
+the exit status is 1 when any step failed.
+
+``--quick`` runs every experiment on a small slice (a smoke test of the whole pipeline, minutes
+with ``--llm oracle``); its numbers are not the published ones.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from rich.console import Console
+
+from llmpas.experiments.jobs import add_llm_argument
+from llmpas.files import atomic_write
+
+ORACLE = "oracle"
+QUICK_TASKS = ("ol01-table2", "ab02-bowl-black-cube", "sc01-apple-fridge")
+
+
+@dataclass(frozen=True)
+class Step:
+    """One experiment: its name (also its output folder) and its ``llmpas`` arguments."""
+
+    name: str
+    argv: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        if not self.name or "/" in self.name:
+            raise ValueError(f"a step name must be a plain folder name, got {self.name!r}")
+        if self.argv[:1] != ("bench",):
+            raise ValueError(f"a step runs an `llmpas bench` command, got {self.argv!r}")
+
+    @property
+    def command(self) -> str:
+        return shlex.join(("llmpas", *self.argv))
+
+
+@dataclass(frozen=True)
+class AllConfig:
+    llm: str = "llama-cpp"
+    jobs: int = 1
+    samples: int = 3  # prompting: samples per task and method
+    count: int = 20  # blocks world: instances per size
+    quick: bool = False
+    out_dir: Path = Path("results")
+
+    def __post_init__(self) -> None:
+        if not self.llm:
+            raise ValueError("llm must name a backend (oracle, replay:DIR, openai:..., llama-cpp)")
+        for name in ("jobs", "samples", "count"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
+
+
+def plan_steps(config: AllConfig) -> tuple[Step, ...]:
+    """The experiments in the order they run: data check, planner, executor, reasoner."""
+    quick = config.quick
+    jobs = ("--jobs", str(config.jobs))
+    llm = ("--llm", config.llm)
+    methods = ("--methods", "none" if config.llm == ORACLE else "all")  # oracle: its row only
+
+    def step(name: str, *argv: str) -> Step:
+        return Step(name, ("bench", name, *argv, "--out", str(config.out_dir / name)))
+
+    steps = [] if quick else [Step("validate-data", ("bench", "validate-data", *jobs))]
+    # planning-time runs its trials one at a time: timings measured in parallel are contended
+    return (
+        *steps,
+        step(
+            "planning-time",
+            *(("--examples", "tamp2d", "--sizes", "2", "3", "--trials", "1") if quick else ()),
+        ),
+        step("perturbation", "--episodes", "6" if quick else "200", *jobs),
+        step(
+            "prompting",
+            *llm,
+            *methods,
+            "--samples",
+            "1" if quick else str(config.samples),
+            *(("--tasks", *QUICK_TASKS) if quick else ()),
+            *jobs,
+        ),
+        step(
+            "blocksworld",
+            *llm,
+            "--count",
+            "1" if quick else str(config.count),
+            *(("--sizes", "3") if quick else ()),
+            *jobs,
+        ),
+    )
+
+
+@dataclass(frozen=True)
+class Outcome:
+    step: Step
+    status: int  # the command's exit status (0: it worked)
+    seconds: float
+    files: tuple[Path, ...]
+
+
+Runner = Callable[[Sequence[str]], int]  # llmpas.cli.main
+
+
+def run_all(config: AllConfig, run: Runner, console: Console | None = None) -> list[Outcome]:
+    """Run every step with ``run`` (the CLI's ``main``) and write ``summary.md``."""
+    console = console or Console()
+    outcomes = []
+    steps = plan_steps(config)
+    for i, step in enumerate(steps, 1):
+        console.rule(f"[bold]{i}/{len(steps)} {step.name}[/]: {step.command}")
+        start = time.perf_counter()
+        try:
+            status = run(step.argv)
+        except Exception as e:  # a crashed step is reported; the rest still run
+            console.print(f"[bold red]{step.name} failed:[/] {type(e).__name__}: {e}")
+            status = 1
+        folder = config.out_dir / step.name
+        files = tuple(sorted(folder.glob("*.md"))) + tuple(sorted(folder.glob("*.png")))
+        outcomes.append(Outcome(step, status, time.perf_counter() - start, files))
+    summary = config.out_dir / "summary.md"
+    config.out_dir.mkdir(parents=True, exist_ok=True)
+    atomic_write(summary, summary_markdown(config, outcomes))
+    console.print(f"wrote {summary}")
+    return outcomes
+
+
+def summary_markdown(config: AllConfig, outcomes: Sequence[Outcome]) -> str:
+    lines = [
+        "# llmpas: every experiment",
+        "",
+        f"LLM: `{config.llm}`"
+        + (" (quick slice: not the published numbers)" if config.quick else ""),
+        "",
+        "| experiment | outcome | time | files | command |",
+        "|---|---|---:|---|---|",
+    ]
+    for o in outcomes:
+        links = ", ".join(
+            f"[{p.name}]({p.relative_to(config.out_dir).as_posix()})" for p in o.files
+        )
+        outcome = "ok" if o.status == 0 else f"failed (exit {o.status})"
+        lines.append(
+            f"| {o.step.name} | {outcome} | {o.seconds:.0f} s | {links or '-'} | "
+            f"`{o.step.command}` |"
+        )
+    total = sum(o.seconds for o in outcomes)
+    lines += ["", f"Total: {total / 60:.1f} min.", ""]
+    return "\n".join(lines)
+
+
+# ------------------------------------------------------------------------------------ CLI
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of ``llmpas bench all``."""
+    add_llm_argument(p)
+    p.add_argument("--jobs", type=int, default=1, help="parallel processes per experiment")
+    p.add_argument("--samples", type=int, default=3, help="prompting: samples per task")
+    p.add_argument("--count", type=int, default=20, help="blocks world: instances per size")
+    p.add_argument("--quick", action="store_true", help="a small slice of every experiment")
+    p.add_argument("--out", default="results", help="one folder per experiment under this")
+
+
+def command(args: argparse.Namespace, console: Console, run: Runner) -> int:
+    config = AllConfig(
+        llm=args.llm,
+        jobs=args.jobs,
+        samples=args.samples,
+        count=args.count,
+        quick=args.quick,
+        out_dir=Path(args.out),
+    )
+    outcomes = run_all(config, run, console)
+    failed = [o.step.name for o in outcomes if o.status != 0]
+    if failed:
+        console.print(f"[bold red]failed:[/] {', '.join(failed)}")
+    return 1 if failed else 0
+
+
+__all__ = ["AllConfig", "Outcome", "Step", "add_arguments", "command", "plan_steps", "run_all"]
