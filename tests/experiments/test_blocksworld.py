@@ -8,6 +8,7 @@ import csv
 import io
 import json
 import shutil
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -159,7 +160,11 @@ def test_parallel_jobs_give_the_same_results(tmp_path: Path) -> None:
     two = run_blocksworld(
         BlocksConfig(count=2, llm="oracle", out_dir=tmp_path / "b", jobs=2), quiet()
     )
-    assert one.outcomes == two.outcomes
+
+    def timeless(report):  # type: ignore[no-untyped-def]  # measured latency never repeats
+        return [replace(o, latency=0.0) for o in report.outcomes]
+
+    assert timeless(one) == timeless(two)
 
 
 def test_problems_from_a_folder(tmp_path: Path) -> None:
