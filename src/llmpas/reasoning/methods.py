@@ -259,13 +259,13 @@ def propose(
     parse = _parse(talk.ask("goals", messages, constrain), read, check)
     repairs = 0
     while not parse.ok and repairs < config.repairs:
-        repairs += 1
         if not banned.issuperset(parse.rejected):
             banned.update(parse.rejected)
             try:
                 constrain = _reader(situation, vocab, config, _sorted(banned))[1]
             except ValueError:  # every literal is excluded: nothing left to ask for
                 break
+        repairs += 1
         messages += [
             Message("assistant", talk.exchanges[-1].response.text),
             Message(
