@@ -5,7 +5,9 @@ Methods (see :mod:`llmpas.experiments.blocks.planners`): ``llm-ic`` (one in-cont
 with the task as the anomaly), and ``oracle`` (Fast Downward's optimal plan; an upper bound, no
 LLM). Every plan is parsed as data and judged by simulating the domain step by step.
 
-Tasks are generated (``count`` seeds per size) or read from a folder of PDDL problem files. Each
+Tasks are generated (``count`` seeds per size) or read from a folder of PDDL problem files,
+written for the shipped domain or for any four-operator blocks domain given with ``--domain``
+(``on-table``, ``arm-empty``, ... : the names' roles are read from the actions). Each
 (task, method) is a cached job (:mod:`llmpas.experiments.jobs`): an interrupted run resumes, and
 ``jobs`` runs them in parallel processes. Writes ``blocksworld.md`` (SR per method and size),
 ``blocksworld.csv`` (one row per task and method), ``blocksworld_summary.csv`` and
@@ -60,7 +62,8 @@ class BlocksConfig:
     ``llm``: ``oracle`` (Fast Downward's plan answered as if by an LLM: an upper bound) |
     ``replay:DIR`` | ``openai:MODEL[@URL]`` | ``llama-cpp[:PATH]``; ``record``: a cassette folder
     the LLM's answers are recorded into. ``problems``: a folder of PDDL problem files used
-    instead of generated instances (``sizes``, ``count`` and ``seed`` then do not apply).
+    instead of generated instances (``sizes``, ``count`` and ``seed`` then do not apply);
+    ``domain``: the blocks domain those files are written for (default: the shipped one).
     """
 
     methods: tuple[str, ...] = METHODS
@@ -68,6 +71,7 @@ class BlocksConfig:
     count: int = 20
     seed: int = 0
     problems: Path | None = None
+    domain: Path | None = None
     llm: str = "llama-cpp"
     record: Path | None = None
     settings: Settings = field(default_factory=Settings)
@@ -93,6 +97,8 @@ class BlocksConfig:
             raise ValueError(
                 f"llm {self.llm!r}: expected oracle, replay:DIR, openai:MODEL or llama-cpp[:PATH]"
             )
+        if self.domain is not None and self.problems is None:
+            raise ValueError("--domain needs --problems (the problem files written for it)")
         if kind == "oracle" and self.record is not None:
             raise ValueError("recording does not apply to the oracle")
 
@@ -201,7 +207,7 @@ def run_job(payload: Payload) -> dict[str, Any]:
         llm = ReferenceOracle(payload.reference)
     else:
         llm = build_llm(payload.llm, payload.record)
-    attempt = run_method(payload.method, problem, llm, payload.settings)
+    attempt = run_method(payload.method, problem, llm, payload.settings, task.domain_text)
     optimal = len(payload.reference) if payload.reference else None
     outcome = TaskResult(
         task.name,
@@ -238,7 +244,7 @@ def _reference_job(task: Task) -> dict[str, Any]:
 
 def load_tasks(config: BlocksConfig) -> list[Task]:
     if config.problems is not None:
-        return read_tasks(config.problems)
+        return read_tasks(config.problems, config.domain)
     return generated_tasks(config.sizes, config.count, config.seed)
 
 
@@ -253,7 +259,7 @@ def run_blocksworld(
     tasks = load_tasks(config)
     cache = config.out_dir / "cache"
     refs = run_jobs(
-        [Job(f"reference/{t.name}/{fingerprint([t.text, OPTIMAL_SEARCH])}", t) for t in tasks],
+        [Job(f"reference/{t.name}/{fingerprint(_task_key(t, OPTIMAL_SEARCH))}", t) for t in tasks],
         _reference_job,
         cache,
         workers=config.jobs,
@@ -274,7 +280,7 @@ def run_blocksworld(
         key_llm = llm_name if uses_llm else "none"
         settings = asdict(config.settings) if uses_llm else {}
         for t in tasks:
-            digest = fingerprint([t.text, references[t.name], settings, prompts, key_llm])
+            digest = fingerprint([*_task_key(t), references[t.name], settings, prompts, key_llm])
             payload = Payload(
                 method,
                 t,
@@ -303,6 +309,12 @@ def run_blocksworld(
     return Report(outcomes, rows, files)
 
 
+def _task_key(task: Task, *more: str) -> list[str]:
+    """What identifies a task in cache keys (the domain only when it is not the shipped one,
+    so caches written before ``--domain`` existed stay valid)."""
+    return [task.text, *more, *([task.domain_text] if task.domain_text else [])]
+
+
 def _str(path: Path | None) -> str | None:
     return None if path is None else str(path)
 
@@ -321,6 +333,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--count", type=int, default=20, help="generated instances per size")
     p.add_argument("--seed", type=int, default=0, help="first generator seed")
     p.add_argument("--problems", help="a folder of PDDL problem files instead of generated ones")
+    p.add_argument(
+        "--domain",
+        help="the four-operator blocks domain the --problems files are written for "
+        "(default: the shipped one; any names, e.g. on-table / arm-empty)",
+    )
     add_llm_argument(p, "oracle (Fast Downward's plan: an upper bound)")
     p.add_argument("--record", help="record the LLM's answers into this cassette folder")
     p.add_argument("--rounds", type=int, default=3, help="COPAL: plan answers at most")
@@ -343,6 +360,7 @@ def command(args: argparse.Namespace, console: Console) -> int:
         count=args.count,
         seed=args.seed,
         problems=Path(args.problems) if args.problems else None,
+        domain=Path(args.domain) if args.domain else None,
         llm=args.llm,
         record=Path(args.record) if args.record else None,
         settings=Settings(
@@ -396,6 +414,7 @@ def markdown_table(rows: Sequence[Row], config: BlocksConfig, llm: str) -> str:
     sizes = sorted({r.size for r in rows})
     source = (
         f"problems from {config.problems}"
+        + (f" (domain {config.domain})" if config.domain is not None else "")
         if config.problems is not None
         else f"{config.count} generated instances per size (seeds {config.seed}.."
         f"{config.seed + config.count - 1})"

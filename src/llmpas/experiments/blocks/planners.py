@@ -26,6 +26,7 @@ from llmpas.reasoning.llm import LLM, Message, Request, Response
 from llmpas.reasoning.methods import template
 
 from .plans import Outcome, Step, Verdict, judge, parse_plan, plan_gbnf, plan_text
+from .roles import BlocksRoles, detect_roles
 from .tasks import Task, actions_text, facts_text, goal_text, state_words, task_words
 
 METHODS = ("oracle", "llm-ic", "copal", "flp")
@@ -49,6 +50,23 @@ EXAMPLE_PLAN = (
     Step("pickup", ("b1",)),
     Step("stack", ("b1", "b2")),
 )
+
+
+def example_for(
+    roles: BlocksRoles, domain_name: str, domain_pddl: str
+) -> tuple[Task, tuple[Step, ...]]:
+    """The in-context example (and its plan) in the words of a domain with these roles."""
+    r = roles
+    text = (
+        f"(define (problem example) (:domain {domain_name}) (:objects b1 b2 b3)\n"
+        f"  (:init ({r.handempty}) ({r.ontable} b1) ({r.on} b2 b1) ({r.clear} b2)"
+        f" ({r.ontable} b3) ({r.clear} b3))\n"
+        f"  (:goal (and ({r.on} b1 b2) ({r.on} b2 b3) ({r.ontable} b3))))"
+    )
+    names = {"unstack": r.unstack, "stack": r.stack, "pickup": r.pickup, "putdown": r.putdown}
+    plan = tuple(Step(names[s.action], s.args) for s in EXAMPLE_PLAN)
+    task = Task("example", 3, "in-context example", text, None, domain_pddl)
+    return task, plan
 
 
 @dataclass(frozen=True)
@@ -166,20 +184,26 @@ def _system() -> Message:
     return Message("system", template("bw_system").substitute().strip())
 
 
-def _ic_prompt(problem: Problem) -> str:
-    example = EXAMPLE.problem()
+def _ic_prompt(problem: Problem, domain_pddl: str) -> str:
+    roles = detect_roles(problem.domain)
+    if domain_pddl:
+        task, plan = example_for(roles, problem.domain.name, domain_pddl)
+    else:
+        task, plan = EXAMPLE, EXAMPLE_PLAN
+    example = task.problem()
     return template("bw_llm_ic").substitute(
         actions=actions_text(problem.domain),
         example_state=_state(example),
         example_goal=goal_text(example),
-        example_plan=plan_text(EXAMPLE_PLAN),
+        example_plan=plan_text(plan),
         state=_state(problem),
         goal=goal_text(problem),
     )
 
 
 def _state(problem: Problem) -> str:
-    return f"{facts_text(problem.init)} (in words: {state_words(problem.init)})"
+    words = state_words(problem.init, detect_roles(problem.domain))
+    return f"{facts_text(problem.init)} (in words: {words})"
 
 
 def _feedback(verdict: Verdict) -> str:
@@ -190,9 +214,13 @@ def _feedback(verdict: Verdict) -> str:
     return template("bw_copal_feedback").substitute(failure=failure)
 
 
-def run_method(method: str, problem: Problem, llm: LLM | None, settings: Settings) -> Attempt:
+def run_method(
+    method: str, problem: Problem, llm: LLM | None, settings: Settings, domain_pddl: str = ""
+) -> Attempt:
     """Run ``method`` on ``problem`` with ``llm`` (unused by ``oracle``, which needs it to be a
-    :class:`ReferenceOracle` carrying the reference plan)."""
+    :class:`ReferenceOracle` carrying the reference plan). ``domain_pddl``: the text of the
+    problem's domain when it is not the shipped one (the in-context example is rewritten in
+    its words)."""
     if method not in METHODS:
         raise ValueError(f"method must be one of {', '.join(METHODS)}; got {method!r}")
     if llm is None:
@@ -222,7 +250,7 @@ def run_method(method: str, problem: Problem, llm: LLM | None, settings: Setting
             first_look=first_look,
         )
     else:
-        prompt = _ic_prompt(problem)
+        prompt = _ic_prompt(problem, domain_pddl)
     messages = [_system(), Message("user", prompt)]
     limit = settings.rounds if method == "copal" else 1
     syntax_errors = 0
@@ -250,6 +278,7 @@ __all__ = [
     "ReferenceOracle",
     "Settings",
     "Turn",
+    "example_for",
     "max_steps",
     "run_method",
 ]

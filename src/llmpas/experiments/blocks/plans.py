@@ -198,6 +198,9 @@ def judge(problem: Problem, parse: PlanParse) -> Verdict:
     if parse.status is ParseStatus.SYNTAX_ERROR:
         return Verdict(Outcome.SYNTAX_ERROR, "; ".join(parse.errors), 0)
     if parse.status is ParseStatus.NO_PLAN:
+        empty = simulate(problem, ())
+        if empty.success:  # the goal holds already: no steps is the right answer
+            return empty
         return Verdict(Outcome.NO_PLAN, "; ".join(parse.errors), 0)
     return simulate(problem, parse.steps)
 

@@ -1,8 +1,11 @@
 """Blocks-world tasks: generated (seeded) or read from a folder of PDDL problem files; their
 descriptions for prompts; and the Fast Downward reference plan (optimal A* with LM-cut).
 
-A :class:`Task` carries its problem as PDDL text so it can cross process boundaries and be
-hashed into cache keys; :meth:`Task.problem` parses it against the shipped domain.
+A :class:`Task` carries its problem (and, for files written for another blocks domain, that
+domain) as PDDL text so it can cross process boundaries and be hashed into cache keys;
+:meth:`Task.problem` parses it against its domain (the shipped one unless given). Any
+four-operator blocks domain works, whatever its names (``on-table``, ``arm-empty``, ...):
+:mod:`.roles` reads them from the actions.
 """
 
 from __future__ import annotations
@@ -17,12 +20,13 @@ from llmpas.examples._files import read_text
 from llmpas.examples.blocksworld import PACKAGE, problem_text
 from llmpas.language.domain import Domain, parse_domain
 from llmpas.language.errors import LanguageError
-from llmpas.language.logic import Atom, Formula, Not, conjuncts
+from llmpas.language.logic import Atom, Not, conjuncts
 from llmpas.language.problem import Problem, parse_problem_text
 from llmpas.language.streams import EMPTY_STREAMS
 from llmpas.planning.downward import ClassicalStatus, DownwardConfig, FastDownward
 
-from .plans import Step
+from .plans import Step, simulate
+from .roles import SHIPPED_ROLES, BlocksRoles, RolesError, detect_roles, goal_words
 
 log = logging.getLogger(__name__)
 
@@ -53,6 +57,8 @@ class Task:
     source: str
     text: str
     seed: int | None = None
+    domain_text: str = ""  # the domain's PDDL; empty: the shipped blocks domain
+    domain_source: str = ""
 
     def __post_init__(self) -> None:
         if not self.name.strip():
@@ -60,16 +66,30 @@ class Task:
         if self.size < 1:
             raise ValueError(f"a task needs at least one block, got {self.size}")
 
+    @property
+    def domain_pddl(self) -> str:
+        return self.domain_text or domain_text()
+
     def problem(self) -> Problem:
-        return _problem(self.text, self.source)
+        return _problem(self.text, self.source, self.domain_text, self.domain_source)
 
 
 @cache
-def _problem(text: str, source: str) -> Problem:
-    pf = parse_problem_text(text, domain(), source)
+def _domain(text: str, source: str) -> Domain:
+    if not text:
+        return domain()
+    dom = parse_domain(text, source or "domain.pddl")
+    detect_roles(dom)  # RolesError (a ValueError) when it is not a blocks world
+    return dom
+
+
+@cache
+def _problem(text: str, source: str, dom_text: str = "", dom_source: str = "") -> Problem:
+    dom = _domain(dom_text, dom_source)
+    pf = parse_problem_text(text, dom, source)
     objects = dict(pf.objects)
     return Problem(
-        domain(),
+        dom,
         EMPTY_STREAMS,
         {o: o for o in objects},
         frozenset(pf.init),
@@ -92,29 +112,48 @@ def generated_tasks(sizes: Sequence[int], count: int, seed: int = 0) -> list[Tas
     ]
 
 
-def read_tasks(folder: str | Path) -> list[Task]:
-    """Every ``*.pddl`` problem file in ``folder`` (sorted; ``domain.pddl`` skipped), checked
-    against the blocks-world domain. Raises :class:`TaskError` naming the first bad file."""
+def read_domain_file(path: str | Path) -> tuple[str, str]:
+    """``(text, source)`` of a four-operator blocks domain file, checked; :class:`TaskError`
+    naming the file when it cannot be read or is not such a domain."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+        _domain(text, str(path))
+    except (LanguageError, RolesError, OSError, UnicodeDecodeError) as err:
+        raise TaskError(_located(err, path)) from None
+    return text, str(path)
+
+
+def _located(err: Exception, path: Path) -> str:
+    message = " ".join(str(err).split())
+    return message if message.startswith(str(path)) else f"{path}: {message}"
+
+
+def read_tasks(folder: str | Path, domain_file: str | Path | None = None) -> list[Task]:
+    """Every ``*.pddl`` problem file in ``folder`` (sorted; domain files skipped), checked
+    against ``domain_file`` (default: the shipped blocks-world domain). Raises
+    :class:`TaskError` naming the first bad file."""
     folder = Path(folder)
+    dom_text, dom_source = read_domain_file(domain_file) if domain_file else ("", "")
     if not folder.is_dir():
         raise TaskError(f"{folder}: not a folder of PDDL problem files")
-    files = sorted(p for p in folder.glob("*.pddl") if p.name != "domain.pddl")
+    skip = {"domain.pddl"} | ({Path(domain_file).name} if domain_file else set())
+    files = sorted(p for p in folder.glob("*.pddl") if p.name not in skip)
     if not files:
         raise TaskError(f"{folder}: no *.pddl problem files")
     tasks = []
     for path in files:
         try:
             text = path.read_text(encoding="utf-8")
-            task = Task(path.stem, 1, str(path), text)
+            task = Task(path.stem, 1, str(path), text, None, dom_text, dom_source)
             problem = task.problem()
         except (LanguageError, OSError, UnicodeDecodeError) as err:
-            message = " ".join(str(err).split())
-            raise TaskError(
-                message if message.startswith(str(path)) else f"{path}: {message}"
-            ) from None
+            raise TaskError(_located(err, path)) from None
         if not problem.objects:
             raise TaskError(f"{path}: the problem has no blocks (:objects is empty)")
-        tasks.append(Task(path.stem, len(problem.objects), str(path), text))
+        tasks.append(
+            Task(path.stem, len(problem.objects), str(path), text, None, dom_text, dom_source)
+        )
     return tasks
 
 
@@ -137,12 +176,12 @@ def facts_text(facts: Iterable[Atom]) -> str:
     return " ".join(sorted(map(str, facts)))
 
 
-def towers(facts: Iterable[Atom]) -> list[list[str]]:
+def towers(facts: Iterable[Atom], roles: BlocksRoles = SHIPPED_ROLES) -> list[list[str]]:
     """Towers listed bottom to top, from ``ontable``/``on`` facts (empty if there are none)."""
     facts = list(facts)
-    above = {a.args[1]: a.args[0] for a in facts if a.predicate == "on" and len(a.args) == 2}
+    above = {a.args[1]: a.args[0] for a in facts if a.predicate == roles.on and len(a.args) == 2}
     out = []
-    for base in sorted(a.args[0] for a in facts if a.predicate == "ontable" and a.args):
+    for base in sorted(a.args[0] for a in facts if a.predicate == roles.ontable and a.args):
         tower, seen = [base], {base}
         while tower[-1] in above and above[tower[-1]] not in seen:
             tower.append(above[tower[-1]])
@@ -151,41 +190,32 @@ def towers(facts: Iterable[Atom]) -> list[list[str]]:
     return out
 
 
-def state_words(facts: Iterable[Atom]) -> str:
+def state_words(facts: Iterable[Atom], roles: BlocksRoles = SHIPPED_ROLES) -> str:
     """The state in plain words: towers bottom to top, and the hand."""
     facts = list(facts)
     parts = [
         "tower " + ", ".join(t) + (" (bottom to top)" if len(t) > 1 else " (alone on the table)")
-        for t in towers(facts)
+        for t in towers(facts, roles)
     ]
-    held = [a.args[0] for a in facts if a.predicate == "holding" and a.args]
+    held = [a.args[0] for a in facts if a.predicate == roles.holding and a.args]
     hand = f"the hand holds {held[0]}" if held else "the hand is empty"
     return "; ".join([*parts, hand])
 
 
-def _goal_words(f: Formula) -> str:
-    match f:
-        case Atom("on", (x, y)):
-            return f"{x} is on {y}"
-        case Atom("ontable", (x,)):
-            return f"{x} is on the table"
-        case Atom("clear", (x,)):
-            return f"nothing is on {x}"
-        case Atom("holding", (x,)):
-            return f"the hand holds {x}"
-        case Atom("handempty", ()):
-            return "the hand is empty"
-    return str(f)
-
-
 def task_words(problem: Problem) -> str:
     """The task as a person would say it (what FLP's first look sees, and nothing else)."""
-    goal = "; ".join(_goal_words(g) for g in conjuncts(problem.goal))
+    roles = detect_roles(problem.domain)
+    goal = "; ".join(goal_words(g, roles) for g in conjuncts(problem.goal))
     return (
         f"There are {len(problem.objects)} blocks ({', '.join(sorted(problem.objects))}). "
-        f"Now: {state_words(problem.init)}. "
+        f"Now: {state_words(problem.init, roles)}. "
         f"Rearrange them so that: {goal}."
     )
+
+
+def problem_holds(problem: Problem) -> bool:
+    """Whether the goal holds in the initial state (the empty plan solves the task)."""
+    return simulate(problem, ()).success
 
 
 def goal_text(problem: Problem) -> str:
@@ -215,7 +245,9 @@ class Reference:
 def reference_plan(task: Task, max_time: float = 60.0) -> Reference:
     """An optimal plan (A* with LM-cut) for ``task``."""
     planner = FastDownward(DownwardConfig(search=OPTIMAL_SEARCH, max_time=max_time))
-    result = planner.solve(domain_text(), task.text)
+    if problem_holds(task.problem()):
+        return Reference(ClassicalStatus.SOLVED, ())  # the goal holds already: the empty plan
+    result = planner.solve(task.domain_pddl, task.text)
     if not result.solved:
         log.warning("%s: Fast Downward %s: %s", task.name, result.status.value, result.message)
         return Reference(result.status, (), result.message)
@@ -231,6 +263,8 @@ __all__ = [
     "facts_text",
     "generated_tasks",
     "goal_text",
+    "problem_holds",
+    "read_domain_file",
     "read_tasks",
     "reference_plan",
     "state_words",
