@@ -1,0 +1,55 @@
+"""The layers stay as built: import-linter's contracts (``.importlinter``) hold on the code, and
+they do fail when a lower layer imports a higher one (checked on a copy with a back-import)."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+CONFIG = ROOT / ".importlinter"
+
+
+def lint(src: Path, cwd: Path) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, "PYTHONPATH": str(src)}
+    script = "from importlinter.cli import lint_imports_command; lint_imports_command()"
+    return subprocess.run(
+        [sys.executable, "-c", script, "--config", str(cwd / ".importlinter"), "--no-cache"],
+        cwd=cwd,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+
+
+def test_the_contracts_hold() -> None:
+    result = lint(ROOT / "src", ROOT)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert "0 broken" in result.stdout
+
+
+@pytest.mark.parametrize(
+    ("module", "back_import", "contract"),
+    [
+        ("language/logic.py", "import llmpas.planning.tamp", "language is the base"),
+        ("execution/space.py", "import llmpas.system", "execution never imports"),
+        ("reasoning/goals.py", "import llmpas.worlds.household.scenario", "reasoning never"),
+    ],
+)
+def test_a_back_import_breaks_a_contract(
+    tmp_path: Path, module: str, back_import: str, contract: str
+) -> None:
+    src = tmp_path / "src"
+    shutil.copytree(ROOT / "src" / "llmpas", src / "llmpas")
+    shutil.copy(CONFIG, tmp_path / ".importlinter")
+    target = src / "llmpas" / module
+    target.write_text(target.read_text() + f"\n{back_import}  # noqa\n")
+    result = lint(src, tmp_path)
+    assert result.returncode != 0
+    assert f"{contract}" in result.stdout and "BROKEN" in result.stdout
