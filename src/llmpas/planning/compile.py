@@ -7,7 +7,8 @@ optimistic facts a plan relies on is found afterwards from its preimage
 commutative orderings make the search space explode).
 
 Negated atoms of test streams are rewritten to ``rejected__P`` facts: true only for bindings a test
-has rejected (before a test is evaluated it is optimistically assumed to pass).
+has rejected (before a test is evaluated it is optimistically assumed to pass). ``rejected__P`` is
+declared for every test predicate, and a task's init keeps only the rejections the domain reads.
 Fast Downward wants integer costs: every cost is multiplied by ``COST_SCALE`` and rounded.
 """
 
@@ -50,6 +51,10 @@ from llmpas.planning.instances import (
 )
 
 COST_SCALE = 100
+
+
+def is_rejection(a: Atom) -> bool:
+    return a.predicate.startswith(rejected_predicate(""))
 
 
 def _scaled(x: float) -> int:
@@ -240,11 +245,19 @@ def compile_domain(
     derived = tuple(replace(x, body=_rewrite(x.body, negative_tests)) for x in d.derived)
     certified = problem.streams.certified_predicates
     preds = [Signature(name, _vars(arity)) for name, arity in certified.items()]
-    preds += [Signature(rejected_predicate(p), _vars(certified[p])) for p in sorted(negative_tests)]
+    # every test's rejections are declared, however (or whether) the domain uses its predicate
+    preds += [
+        Signature(rejected_predicate(p), _vars(certified[p])) for p in test_predicates(problem)
+    ]
     out = replace(d, actions=tuple(actions), derived=derived, undeclared={}).with_additions(
         predicates=preds
     )
     return CompiledDomain(out, out.to_pddl(), inlined)
+
+
+def test_predicates(problem: Problem) -> list[str]:
+    """Predicates certified by test streams (those that can have ``rejected__P`` facts)."""
+    return sorted({a.predicate for s in problem.streams.streams if s.is_test for a in s.certified})
 
 
 def _vars(n: int) -> tuple[Param, ...]:
@@ -306,7 +319,9 @@ def compile_task(
     object_types: Mapping[str, str],
     negative_tests: set[str],
 ) -> Task:
-    init = set(facts) | {a for i in optimistic for a in i.certified}
+    wanted = {rejected_predicate(p) for p in negative_tests}
+    init = {a for a in facts if a.predicate in wanted or not is_rejection(a)}
+    init |= {a for i in optimistic for a in i.certified}
     objects = dict(object_types)
     for a in init:
         for t in a.args:
