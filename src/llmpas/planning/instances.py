@@ -91,7 +91,7 @@ class StreamStore:
         self.deadline = deadline
         self.facts: set[Atom] = set(problem.init)
         self.rejected: set[Atom] = set()
-        self.namer = ValueNamer(taken=problem.all_objects, prefix="s")
+        self.namer = ValueNamer(taken=problem.all_objects, prefix="s", known=problem.objects)
         self.values: dict[str, Any] = dict(problem.objects)
         self.records: dict[tuple[str, tuple[str, ...]], Record] = {}
         self.calls: Counter[str] = Counter()

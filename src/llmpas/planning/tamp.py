@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 from llmpas.language.bindings import BoundStream
 from llmpas.language.logic import Atom, FuncTerm, Substitution
-from llmpas.language.problem import Problem
+from llmpas.language.problem import Problem, missing_function_value
 from llmpas.language.semantics import Semantics, State, preimage
 from llmpas.planning.compile import (
     COST_SCALE,
@@ -392,7 +392,8 @@ def _final_plan(
 def _unsolvable_message(run: _Run) -> str:
     n = len(run.store.records)
     exhausted = sum(r.exhausted for r in run.store.records.values())
+    missing = missing_function_value(run.problem)
     return (
         f"no plan: the classical planner found none after {run.iterations} iteration(s); "
-        f"{exhausted} of {n} stream instances exhausted"
+        f"{exhausted} of {n} stream instances exhausted" + (f" ({missing})" if missing else "")
     )
