@@ -11,12 +11,15 @@ from typing import Any
 
 import pytest
 
-from llmpas.language.bindings import sampler
+from llmpas.language.bindings import cost, sampler
 from llmpas.language.domain import parse_domain
+from llmpas.language.errors import BindingError
+from llmpas.language.logic import Atom, FuncTerm
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics, replay
 from llmpas.language.streams import parse_streams
 from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, solve
+from llmpas.planning.compile import function_values
 
 ALGORITHMS = ("focused", "incremental")
 
@@ -151,3 +154,86 @@ def test_predicate_implementation_must_return_a_bool() -> None:
     result = solve(problem, PlannerConfig(max_time=60))
     assert result.status is PlanStatus.ERROR
     assert "predicate 'collide' returned str, not bool" in result.message
+
+
+# ------------------------------------------------------------------------ per-stream options
+
+
+def test_p_success_zero_streams_are_never_assumed_but_evaluated_on_real_inputs() -> None:
+    asked: dict[str, list[float]] = {"lazy": [], "never-assumed": []}
+
+    def ik_for(mode: str) -> Any:
+        def ik(p: float) -> Iterator[tuple[float]]:
+            asked[mode].append(p)
+            yield (p + 0.25,)
+
+        return ik
+
+    for mode, info in (("lazy", {}), ("never-assumed", {"p_success": 0.0})):
+        base = table([("Placed", "a")], [])
+        problem = Problem.create(
+            base.domain,
+            base.streams,
+            init=base.init,
+            goal=base.goal,
+            objects=dict(base.objects),
+            implementations={"ik": sampler(ik_for(mode), **info), "collide": collide},
+        )
+        result = solve(problem, PlannerConfig(max_time=60))
+        assert result.status is PlanStatus.SOLVED, result.message
+    # the focused planner asks IK only for the goal pose its plan uses; a stream never assumed
+    # is asked for every real pose (5 here) before the first search
+    assert sorted(set(asked["never-assumed"])) == [0.0, 5.0, 5.2, 5.5, 9.0]
+    assert len(set(asked["lazy"])) < 5
+
+
+def test_p_success_zero_and_deferred_contradict() -> None:
+    with pytest.raises(ValueError, match="p_success must be > 0"):
+        sampler(lambda p: iter(()), deferred=True, p_success=0.0)
+
+
+def test_opt_fn_gives_a_cost_its_optimistic_value() -> None:
+    domain = parse_domain(
+        "(define (domain d) (:predicates (Conf ?q)) (:functions (Dist ?a ?b))"
+        " (:action go :parameters (?a ?b) :precondition (and (Conf ?a) (Conf ?b))"
+        " :effect (increase (total-cost) (Dist ?a ?b))))"
+    )
+    spec = parse_streams(
+        "(define (stream s) (:stream q :outputs (?q) :certified (Conf ?q))"
+        " (:function (Dist ?a ?b) (and (Conf ?a) (Conf ?b))))"
+    )
+    seen: list[tuple[Any, ...]] = []
+
+    def optimistic(a: Any, b: Any) -> float:
+        seen.append((a, b))
+        return 0.5 if a is None or b is None else 99.0
+
+    problem = Problem.create(
+        domain,
+        spec,
+        init=[("Conf", 2.0)],
+        goal=[("Conf", 2.0)],
+        implementations={
+            "q": lambda: (1.0,),
+            "dist": cost(lambda a, b: abs(a - b), opt_fn=optimistic),
+        },
+    )
+    (real,) = problem.objects
+    facts = set(problem.init) | {Atom("conf", ("#o1",))}
+    values = function_values(problem, facts, {}, lambda n: problem.objects.get(n, n))
+    assert values[FuncTerm("dist", (real, real))] == 0.0  # computed: both inputs are real
+    assert values[FuncTerm("dist", (real, "#o1"))] == 0.5  # optimistic: one is not computed
+    assert values[FuncTerm("dist", ("#o1", "#o1"))] == 0.5
+    assert (2.0, None) in seen and (None, None) in seen
+
+
+def test_opt_fn_is_for_functions_only() -> None:
+    base = table([("Placed", "a")], [])
+    with pytest.raises(BindingError, match="opt_fn is for ':function' costs only"):
+        Problem.create(
+            base.domain,
+            base.streams,
+            init=base.init,
+            goal=base.goal,
+            implementations={"ik": sampler(lambda p: iter(()), opt_fn=len), "collide": collide},
+        )

@@ -40,28 +40,43 @@ class StreamInfo:
     """Per-stream planning information.
 
     ``deferred``: assumed satisfiable while planning; evaluated by the executor right before the
-    action that needs it. ``overhead`` (expected cost of one call) and ``p_success`` choose which
-    stream instance to evaluate when several could produce a fact an optimistic plan relies on:
-    the one with the lowest ``overhead / p_success`` (after the shallowest). ``max_outputs``
-    bounds how many outputs one stream instance may produce during planning.
+    action that needs it (PDDLStream's ``defer_fn``). ``overhead`` (expected cost of one call)
+    and ``p_success`` choose which stream instance to evaluate when several could produce a fact
+    an optimistic plan relies on: the one with the lowest ``overhead / p_success`` (after the
+    shallowest). ``p_success=0`` (as in PDDLStream, an infinite expected cost) means the stream
+    is never assumed: it gets no placeholder outputs, and its instances on real inputs are
+    evaluated before each search instead (PDDLStream's ``eager``). ``max_outputs`` bounds how
+    many outputs one stream instance may produce during planning. ``opt_fn`` (``:function``
+    only, PDDLStream's ``opt_fn``) gives a cost's optimistic value while some of its inputs are
+    not computed yet: it gets the inputs' values, ``None`` for those not computed, and returns a
+    lower bound of the cost (default: 1).
     """
 
     deferred: bool = False
     overhead: float = 1.0
     p_success: float = 1.0
     max_outputs: int = 10
+    opt_fn: Callable[..., float] | None = None
 
     @property
     def expected_cost(self) -> float:
-        return self.overhead / self.p_success
+        return self.overhead / self.p_success if self.p_success > 0 else math.inf
+
+    @property
+    def never_assumed(self) -> bool:
+        return self.p_success == 0
 
     def __post_init__(self) -> None:
-        if not 0.0 < self.p_success <= 1.0:
-            raise ValueError(f"p_success must be in (0, 1], got {self.p_success}")
+        if not 0.0 <= self.p_success <= 1.0:
+            raise ValueError(f"p_success must be in [0, 1], got {self.p_success}")
         if self.overhead < 0:
             raise ValueError(f"overhead must be >= 0, got {self.overhead}")
         if self.max_outputs < 1:
             raise ValueError(f"max_outputs must be >= 1, got {self.max_outputs}")
+        if self.deferred and self.never_assumed:
+            raise ValueError("a deferred stream is assumed while planning: p_success must be > 0")
+        if self.opt_fn is not None and not callable(self.opt_fn):
+            raise ValueError(f"opt_fn must be callable, got {type(self.opt_fn).__name__}")
 
 
 @dataclass(frozen=True)
@@ -86,8 +101,9 @@ def test(fn: Callable[..., bool], **info: Any) -> Implementation:
 test.__test__ = False  # type: ignore[attr-defined]  # not a pytest test
 
 
-def cost(fn: Callable[..., float]) -> Implementation:
-    return Implementation(fn, Kind.COST)
+def cost(fn: Callable[..., float], **info: Any) -> Implementation:
+    """A ``:function``'s implementation; ``opt_fn=`` gives its optimistic value."""
+    return Implementation(fn, Kind.COST, StreamInfo(**info))
 
 
 @dataclass(frozen=True)
@@ -149,14 +165,20 @@ class BoundFunction:
     impl: Implementation
 
     def value(self, inputs: tuple[Any, ...]) -> float:
-        v = self.impl.fn(*inputs)
+        return self._checked(self.impl.fn(*inputs), "")
+
+    def optimistic(self, inputs: tuple[Any, ...], default: float) -> float:
+        """The cost while some inputs (``None``) are not computed yet."""
+        opt = self.impl.info.opt_fn
+        return default if opt is None else self._checked(opt(*inputs), "'s opt_fn")
+
+    def _checked(self, v: Any, what: str) -> float:
+        name = f"function {self.schema.name!r}{what}"
         if isinstance(v, bool | np.bool_) or not isinstance(v, numbers.Real):
-            raise BindingError(f"function {self.schema.name!r} returned {v!r}, not a number")
+            raise BindingError(f"{name} returned {v!r}, not a number")
         x = float(v)
         if not (x >= 0 and math.isfinite(x)):
-            raise BindingError(
-                f"function {self.schema.name!r} returned {v}, costs must be finite and >= 0"
-            )
+            raise BindingError(f"{name} returned {v}, costs must be finite and >= 0")
         return x
 
 
@@ -228,6 +250,8 @@ def bind(
             raise BindingError(f"stream {s.name!r} is bound to a cost function")
         if s.name in overrides:
             impl = Implementation(impl.fn, impl.kind, overrides[s.name])
+        if impl.info.opt_fn is not None:
+            raise BindingError(f"stream {s.name!r}: opt_fn is for ':function' costs only")
         streams[s.name] = BoundStream(s, impl)
     functions = {f.name: BoundFunction(f, _as_impl(impls[f.name], f.name)) for f in spec.functions}
     return streams, functions

@@ -79,7 +79,7 @@ class ValueNamer:
             return value.lower()
         key = value_key(value)
         if key not in self.by_key:
-            n = len(self.by_key)
+            n = len(self.values)  # names generated so far (known values are not counted)
             while f"{self.prefix}{n}" in self.taken:
                 n += 1
             nm = f"{self.prefix}{n}"

@@ -301,15 +301,20 @@ def _function_values(
     for env in join(f.schema.domain, state):
         term = FuncTerm(head.predicate, Substitution(env).atom(head).args)
         if any(is_optimistic(a) for a in term.args):
-            out[term] = default
+            values = tuple(None if is_optimistic(a) else value(a) for a in term.args)
+            out[term] = _guarded(term, f.optimistic, values, default)
             continue
         if term not in cache:
-            try:
-                cache[term] = f.value(tuple(value(a) for a in term.args))
-            except Exception as e:  # a user's cost function failed: say which term
-                raise StreamFailure(f"function {term} raised {type(e).__name__}: {e}") from e
+            cache[term] = _guarded(term, f.value, tuple(value(a) for a in term.args))
         out[term] = cache[term]
     return out
+
+
+def _guarded(term: FuncTerm, fn: Callable[..., float], *args: Any) -> float:
+    try:
+        return fn(*args)
+    except Exception as e:  # a user's cost function failed: say which term
+        raise StreamFailure(f"function {term} raised {type(e).__name__}: {e}") from e
 
 
 def compile_task(

@@ -85,8 +85,9 @@ class _Run:
         return b.schema.name in self.assumed
 
     def instantiated(self, b: BoundStream) -> bool:
-        """Whether the stream gets optimistic instances (inlined ones need none)."""
-        return b.schema.name not in self.inline
+        """Whether the stream gets optimistic instances (inlined ones need none, and streams
+        with ``p_success=0`` are never assumed)."""
+        return b.schema.name not in self.inline and not b.info.never_assumed
 
     def remaining(self) -> float:
         return self.config.max_time - (time.perf_counter() - self.started)
@@ -174,13 +175,17 @@ def _focused(run: _Run) -> PlanResult:
 
 
 def _negative_streams(run: _Run) -> list[BoundStream]:
-    """Non-deferred tests whose certified atoms occur negated: evaluated on every real binding."""
+    """Non-deferred tests whose certified atoms occur negated, and streams never assumed
+    (``p_success=0``): evaluated on every real binding before a search."""
     return [
         b
         for b in run.problem.bound_streams.values()
-        if b.schema.is_test
-        and not run.deferred(b)
-        and any(a.predicate in run.negative_tests for a in b.schema.certified)
+        if b.info.never_assumed
+        or (
+            b.schema.is_test
+            and not run.deferred(b)
+            and any(a.predicate in run.negative_tests for a in b.schema.certified)
+        )
     ]
 
 
