@@ -36,17 +36,21 @@ def _add_planner_options(p: argparse.ArgumentParser) -> None:
         "--defer",
         action=argparse.BooleanOptionalAction,
         default=True,
-        help="leave deferred streams (e.g. BaseMotion, Kin) to execution",
+        help="leave deferred streams (e.g. BaseMotion, Kin) to execution; --no-defer: nothing "
+        "deferred, every stream computed while planning",
     )
+    p.add_argument("--eager", action="store_true", help=argparse.SUPPRESS)  # old --no-defer
     p.add_argument("--max-time", type=float, default=60.0, help="seconds for the whole plan")
     p.add_argument("--seed", type=int, default=0)
 
 
 def _planner_config(args: argparse.Namespace) -> PlannerConfig:
+    if args.eager:
+        logging.getLogger(__name__).warning("--eager is deprecated: say --no-defer")
     try:
         return PlannerConfig(
             algorithm=args.algorithm,
-            defer=args.defer,
+            defer=args.defer and not args.eager,
             max_time=args.max_time,
             search_time=args.max_time,
             seed=args.seed,
@@ -220,7 +224,9 @@ def _cmd_bench_perturbation(args: argparse.Namespace, console: Console) -> int:
 def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("bench", help="benchmarks and experiments")
     bsub = p.add_subparsers(dest="bench", required=True)
-    pt = bsub.add_parser("planning-time", help="initial planning time vs size, deferred vs eager")
+    pt = bsub.add_parser(
+        "planning-time", help="initial planning time vs size, deferred vs computed"
+    )
     pt.add_argument("--examples", nargs="+", default=["mobile", "tamp2d"])
     pt.add_argument("--sizes", nargs="+", type=int, help="override the example's sizes")
     pt.add_argument("--trials", type=int, default=5)
