@@ -213,3 +213,24 @@ def test_opt_fn_gives_a_cost_its_optimistic_value() -> None:
 def test_opt_fn_is_for_functions_only() -> None:
     with pytest.raises(BindingError, match="opt_fn is for ':function' costs only"):
         rebound(table([], []), ik=sampler(lambda p: iter(()), opt_fn=len), collide=collide)
+
+
+@pytest.mark.parametrize("algorithm", ALGORITHMS)
+def test_external_predicate_in_the_goal_is_checked_before_the_plan_is_returned(
+    algorithm: str,
+) -> None:
+    domain = parse_domain(
+        "(define (domain g) (:predicates (Obj ?o) (Pose ?p) (At ?o ?p) (Bad ?o ?p))"
+        " (:action go :parameters (?o ?p) :precondition (and (Obj ?o) (Pose ?p))"
+        " :effect (At ?o ?p)))"
+    )
+    streams = parse_streams("(define (stream g) (:predicate (Bad ?o ?p) (and (Obj ?o) (Pose ?p))))")
+    problem = Problem.create(
+        domain,
+        streams,
+        init=[("Obj", "a"), ("Pose", "p1"), ("Pose", "p2")],
+        goal="(exists (?p) (and (At a ?p) (not (Bad a ?p))))",
+        implementations={"bad": lambda o, p: p == "p1"},
+    )
+    _, step = one_step(problem, algorithm)
+    assert step.args == ("a", "p2")

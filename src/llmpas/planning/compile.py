@@ -317,6 +317,11 @@ def _guarded(term: FuncTerm, fn: Callable[..., float], *args: Any) -> float:
         raise StreamFailure(f"function {term} raised {type(e).__name__}: {e}") from e
 
 
+def compile_goal(problem: Problem, negative_tests: set[str]) -> Formula:
+    """The goal as the compiled domain reads it (test rejections, external predicates)."""
+    return _rewrite(problem.goal, negative_tests, problem.streams.external_predicates)
+
+
 def compile_task(
     problem: Problem,
     facts: Iterable[Atom],
@@ -341,7 +346,7 @@ def compile_task(
     init_text = [str(a) for a in sorted(init)]
     init_text.append("(= (total-cost) 0)")  # compile_domain gives every action a cost
     init_text += [f"(= {t} {_scaled(v)})" for t, v in sorted(costs.items(), key=str)]
-    goal = _rewrite(problem.goal, negative_tests, problem.streams.external_predicates)
+    goal = compile_goal(problem, negative_tests)
     text = (
         f"(define (problem {problem.name})\n  (:domain {problem.domain.name})\n"
         f"  (:objects {obj_text})\n  (:init\n    " + "\n    ".join(init_text) + ")\n"
@@ -355,6 +360,7 @@ __all__ = [
     "CompiledDomain",
     "Task",
     "compile_domain",
+    "compile_goal",
     "compile_task",
     "function_values",
 ]

@@ -27,6 +27,7 @@ from llmpas.planning.compile import (
     COST_SCALE,
     CompiledDomain,
     compile_domain,
+    compile_goal,
     compile_task,
     function_values,
     inlinable_streams,
@@ -325,7 +326,7 @@ def _retrace(
                 by_fact.setdefault(a, i)
     sem = Semantics(run.compiled.domain, _object_types(run, opt), run.costs)
     init = store.facts | store.rejected | set(by_fact)
-    support = preimage(sem, init, actions, run.problem.goal)
+    support = preimage(sem, init, actions, compile_goal(run.problem, run.negative_tests))
     if support is None:
         raise RuntimeError("the classical plan does not replay under the domain semantics")
     done: set[int] = set()
