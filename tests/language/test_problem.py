@@ -95,7 +95,8 @@ def test_create_with_numpy_arrays():
     assert Atom("atpose", ("a", by_value[id(p1)])) in prob.init
     assert Atom("atpose", ("b", by_value[id(p1)])) in prob.init
     assert prob.goal == And((Atom("atpose", ("a", by_value[id(p3)])),))
-    assert prob.value("a") == "a"  # symbolic objects stand for themselves
+    assert prob.value("a") == "A"  # symbolic objects stand for themselves, as first written
+    assert prob.value("b") == "b" and prob.written("a") == "A"
     assert {"a", "b"} <= set(prob.objects)
     assert "table" not in prob.objects  # a constant, not an object
     assert "table" in prob.all_objects

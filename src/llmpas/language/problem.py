@@ -134,7 +134,9 @@ class Problem:
         init, equal = _split_costs(list(init))
         costs = {**equal, **(costs or {})}
         given = {k.lower(): v for k, v in objects.items()} if isinstance(objects, Mapping) else {}
+        written = list(objects)
         objects = [o.lower() for o in objects]
+        spelling = _spelling(init, written)
         names = _string_names(init, goal) | set(objects)
         namer = ValueNamer(taken=[c.name for c in domain.constants] + sorted(names), known=given)
         atoms = [_atom_from(x, namer) for x in init]
@@ -154,11 +156,23 @@ class Problem:
                     f"goal: unknown object {unknown[0]!r} in {a} (not in init or objects)"
                 )
         # sorted: a set's order depends on the string hash seed, and this order is the objects'
-        values = {n: given.get(n, namer.values.get(n, n)) for n in sorted(names)}
+        # a name stands for itself, spelled as first written
+        values = {n: given.get(n, namer.values.get(n, spelling.get(n, n))) for n in sorted(names)}
         bs, bf = bind(streams, implementations or {}, info)
         types = dict.fromkeys(values, "object")  # objects from Python are untyped
+        spelled = {n: spelling[n] for n in values if n in spelling}
         return cls(
-            domain, streams, values, frozenset(atoms), goal_f, bs, bf, cost_map, types, name=name
+            domain,
+            streams,
+            values,
+            frozenset(atoms),
+            goal_f,
+            bs,
+            bf,
+            cost_map,
+            types,
+            name=name,
+            spelling=spelled,
         )
 
     def with_state(
@@ -207,6 +221,15 @@ def _split_costs(
             raise ModelError(f"init: {x!r}: the value of {x[1]!r} is not a number")
         costs[x[1]] = float(x[2])
     return atoms, costs
+
+
+def _spelling(init: Iterable[Any], objects: Iterable[str]) -> dict[str, str]:
+    """Object name (lower case) -> as first written, for names given as strings."""
+    written = [a for x in init if isinstance(x, tuple) for a in x[1:] if isinstance(a, str)]
+    out: dict[str, str] = {}
+    for a in [*objects, *written]:
+        out.setdefault(a.lower(), a)
+    return out
 
 
 def _string_names(init: Iterable[Any], goal: Any) -> set[str]:
