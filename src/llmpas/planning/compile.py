@@ -317,6 +317,17 @@ def _guarded(term: FuncTerm, fn: Callable[..., float], *args: Any) -> float:
         raise StreamFailure(f"function {term} raised {type(e).__name__}: {e}") from e
 
 
+def external_facts(problem: Problem, rejected: Iterable[Atom]) -> set[Atom]:
+    """``(P ...)`` for every external predicate P its implementation said True for (its
+    complement's test was rejected): what the original domain reads."""
+    by_rejection = {
+        rejected_predicate(c): p for p, c in problem.streams.external_predicates.items()
+    }
+    return {
+        Atom(by_rejection[a.predicate], a.args) for a in rejected if a.predicate in by_rejection
+    }
+
+
 def compile_goal(problem: Problem, negative_tests: set[str]) -> Formula:
     """The goal as the compiled domain reads it (test rejections, external predicates)."""
     return _rewrite(problem.goal, negative_tests, problem.streams.external_predicates)
@@ -362,5 +373,6 @@ __all__ = [
     "compile_domain",
     "compile_goal",
     "compile_task",
+    "external_facts",
     "function_values",
 ]

@@ -29,6 +29,7 @@ from llmpas.planning.compile import (
     compile_domain,
     compile_goal,
     compile_task,
+    external_facts,
     function_values,
     inlinable_streams,
 )
@@ -385,6 +386,7 @@ def _final_plan(
     deferred = tuple(d for st in steps for d in st.deferred)
     certified = {a for a in run.store.facts if a not in run.problem.init}
     certified |= {a for d in deferred for a in facts[d]}
+    certified |= external_facts(run.problem, run.store.rejected)
     return Plan(
         steps=tuple(steps),
         cost=classical_cost / COST_SCALE,
