@@ -499,3 +499,20 @@ def test_a_missing_cost_value_is_named_at_load_time(tmp_path):
     message = str(info.value)
     assert message.startswith(f"{tmp_path / 'problem.pddl'}: action 'stack' adds (dist ?b ?x)")
     assert "no value of 'dist' is given" in message and "\n" not in message
+
+
+@pytest.mark.parametrize(
+    ("init", "needle", "message"),
+    [
+        ("(= (Cost) 1)", "(Cost)", "function 'cost' is not declared in the domain's ':functions'"),
+        ("(= (Dist a) 1)", "(Dist a)", "function 'dist' takes 2 arguments, given 1"),
+    ],
+)
+def test_function_values_in_init_are_checked_at_their_place(tmp_path, init, needle, message):
+    text = problem_text(f"(Block a) {init}")
+    path = tmp_path / "problem.pddl"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(PddlSyntaxError) as info:
+        read_problem(BLOCKS, path)
+    assert (info.value.line, info.value.col) == where(text, needle)
+    assert info.value.message == message

@@ -413,7 +413,7 @@ def parse_problem_text(text: str, domain: Domain, filename: str = "<problem>") -
                 if isinstance(x, Sym):
                     spelling.setdefault(x.text, x.written)
         elif key == ":init":
-            _read_init(s.items[1:], init, costs)
+            _read_init(s.items[1:], init, costs, domain)
         elif key == ":goal":
             goal = fr.formula(s[1], set())
         elif key in (":metric", ":requirements"):
@@ -425,7 +425,9 @@ def parse_problem_text(text: str, domain: Domain, filename: str = "<problem>") -
     return ProblemFile(name, dom_name, objects, tuple(init), costs, goal, spelling)
 
 
-def _read_init(items: tuple[SExpr, ...], init: list[Atom], costs: dict[FuncTerm, float]) -> None:
+def _read_init(
+    items: tuple[SExpr, ...], init: list[Atom], costs: dict[FuncTerm, float], domain: Domain
+) -> None:
     for x in items:
         s = expect_list(x, "an init atom")
         if not s.items or isinstance(s.items[0], SList):
@@ -446,6 +448,7 @@ def _read_init(items: tuple[SExpr, ...], init: list[Atom], costs: dict[FuncTerm,
             if not (value >= 0 and value != float("inf")):
                 raise s[2].pos.error(f"expected a finite number >= 0, found '{text}'")
             if head != TOTAL_COST:
+                _known_function(term, head, len(args), domain)
                 costs[FuncTerm(head, args)] = value
             continue
         _no_nesting(s)
@@ -455,6 +458,14 @@ def _read_init(items: tuple[SExpr, ...], init: list[Atom], costs: dict[FuncTerm,
                 tuple(expect_sym(t, "an object").text for t in s.items[1:]),
             )
         )
+
+
+def _known_function(term: SList, name: str, arity: int, domain: Domain) -> None:
+    sig = domain.functions.get(name)
+    if sig is None:
+        raise term.pos.error(f"function '{name}' is not declared in the domain's ':functions'")
+    if sig.arity != arity:
+        raise term.pos.error(f"function '{name}' takes {sig.arity} arguments, given {arity}")
 
 
 def _no_nesting(s: SList) -> None:
