@@ -46,10 +46,10 @@ class StreamInfo:
     shallowest). ``p_success=0`` (as in PDDLStream, an infinite expected cost) means the stream
     is never assumed: it gets no placeholder outputs, and each of its instances on real inputs
     is called once, before the next search, instead (PDDLStream's ``eager``). ``max_outputs``
-    bounds how many outputs one stream instance may produce during planning. ``opt_fn`` (``:function``
-    only, PDDLStream's ``opt_fn``) gives a cost's optimistic value while some of its inputs are
-    not computed yet: it gets the inputs' values, ``None`` for those not computed, and returns a
-    lower bound of the cost (default: 1).
+    bounds how many outputs one stream instance may produce during planning. ``opt_fn``
+    (``:function`` only, PDDLStream's ``opt_fn``) gives a cost's optimistic value while some of
+    its inputs are not computed yet: it gets the inputs' values, ``None`` for those not computed,
+    and returns a lower bound of the cost (default: 1).
     """
 
     deferred: bool = False
