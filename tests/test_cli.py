@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 from pathlib import Path
 
 import pytest
@@ -32,7 +33,7 @@ def test_plan_json_is_machine_readable(capsys: pytest.CaptureFixture[str]) -> No
     assert main(["plan", *FILES, "--json", "--no-defer"]) == 0
     data = json.loads(capsys.readouterr().out)
     assert data["status"] == "solved"
-    assert data["stats"]["stream_calls"]["reach"] >= 4  # eager: reach evaluated while planning
+    assert data["stats"]["stream_calls"]["reach"] >= 4  # computed: reach evaluated while planning
     assert all(step["deferred"] == [] for step in data["plan"]["steps"])
 
 
@@ -144,3 +145,14 @@ def test_run_pybullet_options_and_unknown_scenarios_are_one_line(
     assert "no PyBullet scenario 'state-change-apple'" in _error_line(capsys)
     assert main(["run", "state-change-apple", "--gui", "--llm", "oracle"]) == 2
     assert "--gui and --no-llm apply to the PyBullet world" in _error_line(capsys)
+
+
+def test_old_eager_flag_means_no_defer_and_warns(
+    capsys: pytest.CaptureFixture[str], caplog: pytest.LogCaptureFixture
+) -> None:
+    with caplog.at_level(logging.WARNING):
+        assert main(["plan", *FILES, "--json", "--eager"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["stats"]["stream_calls"]["reach"] >= 1  # computed while planning
+    assert all(step["deferred"] == [] for step in data["plan"]["steps"])
+    assert "--eager is deprecated: say --no-defer" in caplog.text

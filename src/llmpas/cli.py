@@ -36,17 +36,21 @@ def _add_planner_options(p: argparse.ArgumentParser) -> None:
         "--defer",
         action=argparse.BooleanOptionalAction,
         default=True,
-        help="leave deferred streams (e.g. BaseMotion, Kin) to execution",
+        help="leave deferred streams (e.g. BaseMotion, Kin) to execution; --no-defer: nothing "
+        "deferred, every stream computed while planning",
     )
+    p.add_argument("--eager", action="store_true", help=argparse.SUPPRESS)  # old --no-defer
     p.add_argument("--max-time", type=float, default=60.0, help="seconds for the whole plan")
     p.add_argument("--seed", type=int, default=0)
 
 
 def _planner_config(args: argparse.Namespace) -> PlannerConfig:
+    if args.eager:
+        logging.getLogger(__name__).warning("--eager is deprecated: say --no-defer")
     try:
         return PlannerConfig(
             algorithm=args.algorithm,
-            defer=args.defer,
+            defer=args.defer and not args.eager,
             max_time=args.max_time,
             search_time=args.max_time,
             seed=args.seed,
@@ -55,10 +59,11 @@ def _planner_config(args: argparse.Namespace) -> PlannerConfig:
         raise CliError(str(e)) from None
 
 
-def _load_bindings(spec: str | None) -> Mapping[str, Any]:
-    """``MODULE:NAME`` or ``path/to/file.py:NAME`` -> the mapping stream name -> implementation."""
+def _load_bindings(spec: str | None) -> tuple[Mapping[str, Any], Mapping[str, Any]]:
+    """``MODULE:NAME`` or ``path/to/file.py:NAME`` -> (the mapping stream name ->
+    implementation, the module's ``VALUES``: object name -> Python value, or {})."""
     if spec is None:
-        return {}
+        return {}, {}
     where, _, attr = spec.rpartition(":")
     if not where or not attr:
         raise CliError(f"--bindings {spec!r}: expected MODULE:NAME or FILE.py:NAME")
@@ -73,7 +78,10 @@ def _load_bindings(spec: str | None) -> Mapping[str, Any]:
         raise CliError(f"--bindings {spec!r}: calling it failed: {e}") from None
     if not isinstance(value, Mapping):
         raise CliError(f"--bindings {spec!r} is {type(value).__name__}, not a mapping")
-    return value
+    values = getattr(module, "VALUES", {})
+    if not isinstance(values, Mapping):
+        raise CliError(f"--bindings {spec!r}: VALUES is {type(values).__name__}, not a mapping")
+    return value, values
 
 
 def _import(where: str) -> Any:
@@ -104,7 +112,8 @@ def _problem_from_args(args: argparse.Namespace) -> Problem:
     for f in (args.domain, args.problem, args.streams):
         if f is not None and not Path(f).is_file():
             raise CliError(f"{f}: no such file")
-    return read_problem(args.domain, args.problem, args.streams, _load_bindings(args.bindings))
+    impls, values = _load_bindings(args.bindings)
+    return read_problem(args.domain, args.problem, args.streams, impls, values=values)
 
 
 def _cmd_plan(args: argparse.Namespace, console: Console) -> int:
@@ -115,11 +124,15 @@ def _cmd_plan(args: argparse.Namespace, console: Console) -> int:
     if args.json:
         sys.stdout.write(result.dumps() + "\n")
     else:
-        _print_result(result, console)
+        _print_result(result, console, problem.spelling)
     return 0 if result.solved else 1
 
 
-def _print_result(result: PlanResult, console: Console) -> None:
+def _print_result(
+    result: PlanResult, console: Console, written: Mapping[str, str] | None = None
+) -> None:
+    """The plan, objects named as the problem file writes them, and the statistics."""
+    written = written or {}
     s = result.stats
     if result.plan is None:
         console.print(f"[bold red]{result.status.value}[/]: {result.message}")
@@ -133,7 +146,8 @@ def _print_result(result: PlanResult, console: Console) -> None:
                 if step.deferred
                 else ""
             )
-            console.print(f"  {i:3d}. {step}{deferred}")
+            text = " ".join([step.action, *(written.get(a, a) for a in step.args)])
+            console.print(f"  {i:3d}. ({text}){deferred}", highlight=False)
     table = Table(title="statistics", show_header=False)
     table.add_row("algorithm", s.algorithm)
     table.add_row("iterations", str(s.iterations))
@@ -210,7 +224,9 @@ def _cmd_bench_perturbation(args: argparse.Namespace, console: Console) -> int:
 def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("bench", help="benchmarks and experiments")
     bsub = p.add_subparsers(dest="bench", required=True)
-    pt = bsub.add_parser("planning-time", help="initial planning time vs size, deferred vs eager")
+    pt = bsub.add_parser(
+        "planning-time", help="initial planning time vs size, deferred vs computed"
+    )
     pt.add_argument("--examples", nargs="+", default=["mobile", "tamp2d"])
     pt.add_argument("--sizes", nargs="+", type=int, help="override the example's sizes")
     pt.add_argument("--trials", type=int, default=5)

@@ -21,6 +21,7 @@ from llmpas.experiments.planning_time import (
     Report,
     Trial,
     markdown_table,
+    planner_config,
     run_planning_time,
 )
 
@@ -44,7 +45,7 @@ class FakeTrials:
         if size == self.fail_on:
             raise RuntimeError(f"interrupted at size {size}")
         self.calls.append((example, size, mode, trial))
-        t = 0.1 * size * (3 if mode == "eager" else 1) + 0.01 * trial
+        t = 0.1 * size * (3 if mode == "computed" else 1) + 0.01 * trial
         return Trial(example, size, mode, trial, "solved", t, t / 2, 0.0, t / 2, size, size)
 
 
@@ -57,13 +58,14 @@ def test_bench_writes_csv_table_and_plot(tmp_path: Path) -> None:
     assert names == {"planning_time.csv", "planning_time.md", "planning_time.png"}
     rows = list(csv.DictReader((tmp_path / "planning_time.csv").open()))
     assert len(rows) == 2 * 2 * 2  # sizes x trials x modes
-    assert {r["mode"] for r in rows} == {"deferred", "eager"}
+    assert {r["mode"] for r in rows} == {"deferred", "computed"}
     assert all(r["status"] == "solved" for r in rows)
-    # deferred runs never call the deferred streams; eager ones do
+    # deferred runs never call the deferred streams; computed ones do
     by_mode = {
-        m: [int(r["stream_calls"]) for r in rows if r["mode"] == m] for m in ("deferred", "eager")
+        m: [int(r["stream_calls"]) for r in rows if r["mode"] == m]
+        for m in ("deferred", "computed")
     }
-    assert max(by_mode["deferred"]) < min(by_mode["eager"])
+    assert max(by_mode["deferred"]) < min(by_mode["computed"])
     table = (tmp_path / "planning_time.md").read_text()
     assert "| mobile | 1 |" in table and "| mobile | 2 |" in table
     assert "1 job: trials one at a time" in table
@@ -103,12 +105,12 @@ def test_an_interrupted_run_resumes_with_the_missing_trials(
     fake = FakeTrials()
     monkeypatch.setattr(planning_time, "run_trial", fake)
     report = run_planning_time(config, quiet())
-    assert fake.calls == [("mobile", 2, "deferred", 0), ("mobile", 2, "eager", 0)]
+    assert fake.calls == [("mobile", 2, "deferred", 0), ("mobile", 2, "computed", 0)]
     assert [(t.size, t.mode) for t in report.trials] == [
         (1, "deferred"),
-        (1, "eager"),
+        (1, "computed"),
         (2, "deferred"),
-        (2, "eager"),
+        (2, "computed"),
     ]
 
 
@@ -170,7 +172,7 @@ def test_cli_passes_jobs_through(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 def test_markdown_marks_unsolved_sizes() -> None:
     from llmpas.experiments.planning_time import Row
 
-    row = Row("mobile", 8, {"deferred": 2.0, "eager": None}, {"deferred": 5, "eager": 0}, 5)
+    row = Row("mobile", 8, {"deferred": 2.0, "computed": None}, {"deferred": 5, "computed": 0}, 5)
     text = markdown_table([row], BenchConfig(examples=("mobile",)))
     assert "| mobile | 8 | 2.00 | 5/5 | — | 0/5 | — |" in text
     assert "; 1 job: trials one at a time)" in text.splitlines()[0]
@@ -185,3 +187,13 @@ def test_markdown_marks_unsolved_sizes() -> None:
 def test_bad_configuration_is_rejected(bad: dict[str, object]) -> None:
     with pytest.raises((ValueError, KeyError)):
         BenchConfig(**bad)  # type: ignore[arg-type]
+
+
+def test_the_old_eager_spelling_still_means_computed_but_warns() -> None:
+    config = BenchConfig(examples=("mobile",), trials=1)
+    with pytest.warns(DeprecationWarning, match="'eager' is deprecated; say 'computed'"):
+        old = planner_config("eager", 0, config)
+    assert old == planner_config("computed", 0, config)
+    assert not old.defer and planner_config("deferred", 0, config).defer
+    with pytest.raises(ValueError, match="mode must be one of"):
+        planner_config("lazy", 0, config)

@@ -126,7 +126,9 @@ def test_not_callable_and_cost_for_a_stream():
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"p_success": 0.0}, "p_success must be in"),
+        ({"p_success": -0.1}, "p_success must be in"),
+        ({"p_success": 0.0, "deferred": True}, "p_success must be > 0"),
+        ({"opt_fn": 1.0}, "opt_fn must be callable"),
         ({"p_success": 1.5}, "p_success must be in"),
         ({"overhead": -1}, "overhead must be >= 0"),
         ({"max_outputs": 0}, "max_outputs must be >= 1"),

@@ -60,10 +60,15 @@ def test_value_namer():
     a, b = np.zeros(2), np.zeros(2)
     assert namer.name("MixedCase") == "mixedcase"
     na, nb = namer.name(a), namer.name(b)
-    assert na != nb  # equal but unhashable: identity decides
-    assert {na, nb}.isdisjoint({"v0", "v2"})
-    assert namer.name(a) == na
-    assert namer.values[na] is a and namer.values[nb] is b
+    assert na == nb  # equal arrays are one object: bytes, shape and dtype decide
+    assert na not in {"v0", "v2"}
+    assert namer.values[na] is a
+    # the same bytes under another shape or dtype are other values
+    assert namer.name(np.zeros((2, 1))) != na
+    assert namer.name(np.zeros(2, dtype=np.float32)) != na
+    assert namer.name(np.array([0.0, 1e-12])) != na
+    unhashable = [{"k": 1}, {"k": 1}]  # neither hashable nor arrays: identity decides
+    assert namer.name(unhashable[0]) != namer.name(unhashable[1])
     assert namer.name((1.0, 2.0)) == namer.name((1.0, 2.0))  # equal hashable values share
     assert namer.name(7) != namer.name(8)
 
@@ -83,13 +88,15 @@ def test_create_with_numpy_arrays():
         goal=[("AtPose", "a", p3)],
     )
     poses = {a.args[1] for a in prob.init if a.predicate == "atpose"}
-    assert len(poses) == 3  # p1 and p2 are equal but distinct objects
+    assert len(poses) == 2  # p1 and p2 are equal arrays: one object
     by_value = {id(prob.value(n)): n for n in poses}
-    assert set(by_value) == {id(p1), id(p2), id(p3)}
+    assert set(by_value) == {id(p1), id(p3)}
     assert prob.value(by_value[id(p1)]) is p1
     assert Atom("atpose", ("a", by_value[id(p1)])) in prob.init
+    assert Atom("atpose", ("b", by_value[id(p1)])) in prob.init
     assert prob.goal == And((Atom("atpose", ("a", by_value[id(p3)])),))
-    assert prob.value("a") == "a"  # symbolic objects stand for themselves
+    assert prob.value("a") == "A"  # symbolic objects stand for themselves, as first written
+    assert prob.value("b") == "b" and prob.written("a") == "A"
     assert {"a", "b"} <= set(prob.objects)
     assert "table" not in prob.objects  # a constant, not an object
     assert "table" in prob.all_objects
@@ -340,7 +347,7 @@ def test_read_problem_rejects_bad_atoms(tmp_path, init, goal, message):
 
 
 def test_goal_may_name_domain_constants(tmp_path):
-    prob = read_text(tmp_path, problem_text("(Block a)", "(On a Table)"))
+    prob = read_text(tmp_path, problem_text("(Block a) (= (Dist a Table) 1)", "(On a Table)"))
     assert prob.goal == Atom("on", ("a", "table"))
 
 
@@ -421,3 +428,91 @@ def test_wild_problem_text_is_kept_as_written(wild_domain):
     pf = parse_problem_text(WILD_PROBLEM, wild_domain, "p.pddl")
     assert pf.name == "two-blocks"
     assert pf.domain_name == "pick-and-place"
+
+
+# ------------------------------------------------- values, spelling and cost idioms (issue #11)
+
+
+def test_file_objects_keep_their_spelling_and_take_given_values(tmp_path):
+    pose = np.array([0.5, 1.5])
+    prob = read_text(
+        tmp_path,
+        problem_text("(Block pA0) (Block Q) (= (Dist pA0 Q) 1)", "(On pA0 Q)", "pA0 Q"),
+        values={"PA0": pose},  # matched without regard to case
+    )
+    assert prob.value("pa0") is pose  # streams receive the value
+    assert prob.value("q") == "Q"  # or the name as written
+    assert prob.goal == Atom("on", ("pa0", "q"))  # matching stays case-insensitive
+
+
+def test_values_for_unknown_objects_are_refused(tmp_path):
+    with pytest.raises(ModelError, match="a value is given for 'pb', which is not an object"):
+        read_text(tmp_path, problem_text("(Block a) (= (Dist a b) 1)"), values={"pB": 1.0})
+
+
+def test_equal_values_from_init_and_from_streams_are_one_object():
+    pose = np.array([1.0, 2.0])
+    namer = ValueNamer(prefix="s", known={"pa0": pose, "a": "a"})
+    assert namer.name(np.array([1.0, 2.0])) == "pa0"
+    assert namer.name(np.array([2.0, 1.0])) not in {"pa0", "a"}
+
+
+@pytest.mark.parametrize(
+    "cost", ["(= (total-cost) 0) (= (Dist a b) 1)", "(= (Dist a b) 1) (= (total-cost) 3)"]
+)
+def test_total_cost_in_init_is_accepted_and_left_to_the_planner(tmp_path, cost):
+    prob = read_text(tmp_path, problem_text(f"(Block a) {cost}"))
+    assert prob.costs == {FuncTerm("dist", ("a", "b")): 1.0}
+
+
+def test_python_equal_idiom_gives_function_values():
+    prob = Problem.create(
+        BLOCKS,
+        init=[
+            ("Block", "a"),
+            ("Block", "b"),
+            ("=", ("Dist", "a", "b"), 2),
+            ("=", ("total-cost",), 0),
+        ],
+        goal=[("On", "a", "b")],
+    )
+    assert prob.costs == {FuncTerm("dist", ("a", "b")): 2.0}
+    assert all(a.predicate != "=" for a in prob.init)
+
+
+@pytest.mark.parametrize(
+    ("item", "message"),
+    [
+        (("=", "Dist", 2), "expected \\('=', \\(FUNCTION, ARG, ...\\), NUMBER\\)"),
+        (("=", ("Dist", "a", "b"), "far"), "the value of .* is not a number"),
+        (("=", ("Dist", "a", "b"), -1), "must be a finite number >= 0"),
+    ],
+)
+def test_python_equal_idiom_errors(item, message):
+    with pytest.raises(ModelError, match=message):
+        Problem.create(BLOCKS, init=[("Block", "a"), ("Block", "b"), item], goal=[("Block", "a")])
+
+
+def test_a_missing_cost_value_is_named_at_load_time(tmp_path):
+    with pytest.raises(ModelError) as info:
+        read_text(tmp_path, problem_text("(Block a)"))
+    message = str(info.value)
+    assert message.startswith(f"{tmp_path / 'problem.pddl'}: action 'stack' adds (dist ?b ?x)")
+    assert "no value of 'dist' is given" in message and "\n" not in message
+
+
+@pytest.mark.parametrize(
+    ("init", "needle", "message"),
+    [
+        ("(= (Cost) 1)", "(Cost)", "function 'cost' is not declared in the domain's ':functions'"),
+        ("(= (Dist a) 1)", "(Dist a)", "function 'dist' takes 2 arguments, given 1"),
+    ],
+)
+def test_function_values_in_init_are_checked_at_their_place(tmp_path, init, needle, message):
+    text = problem_text(f"(Block a) {init}")
+    path = tmp_path / "problem.pddl"
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(PddlSyntaxError) as info:
+        read_problem(BLOCKS, path)
+    assert (info.value.line, info.value.col) == where(text, needle)
+    assert info.value.message == message

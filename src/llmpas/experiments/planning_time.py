@@ -1,7 +1,8 @@
-"""Initial planning time vs problem size, deferred vs eager: CSV, markdown table and PNG plot.
+"""Initial planning time vs problem size, deferred vs computed: CSV, markdown table and PNG plot.
 
 *Deferred*: streams marked deferred (e.g. BaseMotion, Kin) are assumed at planning time and left
-to the executor. *Eager*: every stream is evaluated while planning. Both use the same algorithm,
+to the executor. *Computed* (nothing deferred; called "eager" before, a spelling still accepted
+with a warning): every stream is evaluated while planning. Both use the same algorithm,
 the same problems (one seed per trial) and the same limits, in one run, so their ratio is fair.
 
 Each trial is a cached job (:mod:`llmpas.experiments.jobs`): an interrupted run resumes and a
@@ -14,6 +15,7 @@ from __future__ import annotations
 
 import logging
 import statistics
+import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
@@ -28,7 +30,8 @@ from llmpas.planning import PlannerConfig, solve
 
 log = logging.getLogger(__name__)
 
-MODES = ("deferred", "eager")
+MODES = ("deferred", "computed")
+DEPRECATED_MODES = {"eager": "computed"}  # old spelling -> mode
 
 
 @dataclass(frozen=True)
@@ -85,7 +88,7 @@ class Row:
 
     @property
     def ratio(self) -> float | None:
-        d, e = self.median["deferred"], self.median["eager"]
+        d, e = self.median["deferred"], self.median["computed"]
         if d is None or e is None or d <= 0:
             return None
         return e / d
@@ -110,6 +113,15 @@ class Payload:
 
 
 def planner_config(mode: str, trial: int, config: BenchConfig) -> PlannerConfig:
+    if mode in DEPRECATED_MODES:
+        warnings.warn(
+            f"mode {mode!r} is deprecated; say {DEPRECATED_MODES[mode]!r} (nothing deferred)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        mode = DEPRECATED_MODES[mode]
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
     return PlannerConfig(
         algorithm=config.algorithm,  # type: ignore[arg-type]
         defer=(mode == "deferred"),
@@ -229,15 +241,15 @@ def markdown_table(rows: Iterable[Row], config: BenchConfig, jobs: int | None = 
         f"Initial planning time (median of solved trials, seconds; {config.trials} trials per "
         f"size, limit {config.max_time:g} s per trial; {_jobs_note(jobs)})",
         "",
-        "| example | size | deferred (s) | solved | eager (s) | solved | eager / deferred |",
+        "| example | size | deferred (s) | solved | computed (s) | solved | computed / deferred |",
         "|---|---:|---:|---:|---:|---:|---:|",
     ]
     for r in rows:
         ratio = "—" if r.ratio is None else f"{r.ratio:.1f}x"
         lines.append(
             f"| {r.example} | {r.size} | {_fmt(r.median['deferred'])} | "
-            f"{r.solved['deferred']}/{r.trials} | {_fmt(r.median['eager'])} | "
-            f"{r.solved['eager']}/{r.trials} | {ratio} |"
+            f"{r.solved['deferred']}/{r.trials} | {_fmt(r.median['computed'])} | "
+            f"{r.solved['computed']}/{r.trials} | {ratio} |"
         )
     return "\n".join(lines) + "\n"
 
@@ -264,7 +276,7 @@ def plot(trials: Sequence[Trial], rows: Sequence[Row], config: BenchConfig, path
 
     examples = sorted({r.example for r in rows})
     fig, axes = plt.subplots(1, len(examples), figsize=(5.5 * len(examples), 4.2), squeeze=False)
-    colors = {"deferred": "tab:blue", "eager": "tab:red"}
+    colors = {"deferred": "tab:blue", "computed": "tab:red"}
     for ax, ex in zip(axes[0], examples, strict=True):
         for mode in MODES:
             pts = [t for t in trials if t.example == ex and t.mode == mode]

@@ -40,28 +40,43 @@ class StreamInfo:
     """Per-stream planning information.
 
     ``deferred``: assumed satisfiable while planning; evaluated by the executor right before the
-    action that needs it. ``overhead`` (expected cost of one call) and ``p_success`` choose which
-    stream instance to evaluate when several could produce a fact an optimistic plan relies on:
-    the one with the lowest ``overhead / p_success`` (after the shallowest). ``max_outputs``
-    bounds how many outputs one stream instance may produce during planning.
+    action that needs it (PDDLStream's ``defer_fn``). ``overhead`` (expected cost of one call)
+    and ``p_success`` choose which stream instance to evaluate when several could produce a fact
+    an optimistic plan relies on: the one with the lowest ``overhead / p_success`` (after the
+    shallowest). ``p_success=0`` (as in PDDLStream, an infinite expected cost) means the stream
+    is never assumed: it gets no placeholder outputs, and each of its instances on real inputs
+    is called once, before the next search, instead (PDDLStream's ``eager``). ``max_outputs``
+    bounds how many outputs one stream instance may produce during planning. ``opt_fn``
+    (``:function`` only, PDDLStream's ``opt_fn``) gives a cost's optimistic value while some of
+    its inputs are not computed yet: it gets the inputs' values, ``None`` for those not computed,
+    and returns a lower bound of the cost (default: 1).
     """
 
     deferred: bool = False
     overhead: float = 1.0
     p_success: float = 1.0
     max_outputs: int = 10
+    opt_fn: Callable[..., float] | None = None
 
     @property
     def expected_cost(self) -> float:
-        return self.overhead / self.p_success
+        return self.overhead / self.p_success if self.p_success > 0 else math.inf
+
+    @property
+    def never_assumed(self) -> bool:
+        return self.p_success == 0
 
     def __post_init__(self) -> None:
-        if not 0.0 < self.p_success <= 1.0:
-            raise ValueError(f"p_success must be in (0, 1], got {self.p_success}")
+        if not 0.0 <= self.p_success <= 1.0:
+            raise ValueError(f"p_success must be in [0, 1], got {self.p_success}")
         if self.overhead < 0:
             raise ValueError(f"overhead must be >= 0, got {self.overhead}")
         if self.max_outputs < 1:
             raise ValueError(f"max_outputs must be >= 1, got {self.max_outputs}")
+        if self.deferred and self.never_assumed:
+            raise ValueError("a deferred stream is assumed while planning: p_success must be > 0")
+        if self.opt_fn is not None and not callable(self.opt_fn):
+            raise ValueError(f"opt_fn must be callable, got {type(self.opt_fn).__name__}")
 
 
 @dataclass(frozen=True)
@@ -86,8 +101,9 @@ def test(fn: Callable[..., bool], **info: Any) -> Implementation:
 test.__test__ = False  # type: ignore[attr-defined]  # not a pytest test
 
 
-def cost(fn: Callable[..., float]) -> Implementation:
-    return Implementation(fn, Kind.COST)
+def cost(fn: Callable[..., float], **info: Any) -> Implementation:
+    """A ``:function``'s implementation; ``opt_fn=`` gives its optimistic value."""
+    return Implementation(fn, Kind.COST, StreamInfo(**info))
 
 
 @dataclass(frozen=True)
@@ -149,15 +165,44 @@ class BoundFunction:
     impl: Implementation
 
     def value(self, inputs: tuple[Any, ...]) -> float:
-        v = self.impl.fn(*inputs)
+        return self._checked(self.impl.fn(*inputs), "")
+
+    def optimistic(self, inputs: tuple[Any, ...], default: float) -> float:
+        """The cost while some inputs (``None``) are not computed yet."""
+        opt = self.impl.info.opt_fn
+        return default if opt is None else self._checked(opt(*inputs), "'s opt_fn")
+
+    def _checked(self, v: Any, what: str) -> float:
+        name = f"function {self.schema.name!r}{what}"
         if isinstance(v, bool | np.bool_) or not isinstance(v, numbers.Real):
-            raise BindingError(f"function {self.schema.name!r} returned {v!r}, not a number")
+            raise BindingError(f"{name} returned {v!r}, not a number")
         x = float(v)
         if not (x >= 0 and math.isfinite(x)):
-            raise BindingError(
-                f"function {self.schema.name!r} returned {v}, costs must be finite and >= 0"
-            )
+            raise BindingError(f"{name} returned {v}, costs must be finite and >= 0")
         return x
+
+
+RULE_INFO = StreamInfo(overhead=0.0)
+
+
+def _always(*_: Any) -> bool:
+    return True
+
+
+@dataclass(frozen=True)
+class _Complement:
+    """An external predicate's implementation, as the test of its complement ``not__P``."""
+
+    fn: Callable[..., Any]
+    name: str
+
+    def __call__(self, *args: Any) -> bool:
+        result = self.fn(*args)
+        if not isinstance(result, bool | np.bool_ | int) and result is not None:
+            raise BindingError(
+                f"predicate {self.name!r} returned {type(result).__name__}, not bool"
+            )
+        return not result
 
 
 def _as_impl(obj: Any, name: str) -> Implementation:
@@ -176,7 +221,7 @@ def bind(
 ) -> tuple[dict[str, BoundStream], dict[str, BoundFunction]]:
     """Match declarations to implementations by name; every one must have its partner."""
     impls = {k.lower(): v for k, v in implementations.items()}
-    declared = {s.name for s in spec.streams} | {f.name for f in spec.functions}
+    declared = {s.name for s in spec.streams if not s.is_rule} | {f.name for f in spec.functions}
     missing = sorted(declared - impls.keys())
     if missing:
         raise BindingError(
@@ -195,11 +240,18 @@ def bind(
         )
     streams: dict[str, BoundStream] = {}
     for s in spec.streams:
+        if s.is_rule:  # an axiom: always holds, costs nothing
+            streams[s.name] = BoundStream(s, Implementation(_always, Kind.TEST, RULE_INFO))
+            continue
         impl = _as_impl(impls[s.name], s.name)
+        if s.is_predicate:
+            impl = Implementation(_Complement(impl.fn, s.name), Kind.TEST, impl.info)
         if impl.kind is Kind.COST:
             raise BindingError(f"stream {s.name!r} is bound to a cost function")
         if s.name in overrides:
             impl = Implementation(impl.fn, impl.kind, overrides[s.name])
+        if impl.info.opt_fn is not None:
+            raise BindingError(f"stream {s.name!r}: opt_fn is for ':function' costs only")
         streams[s.name] = BoundStream(s, impl)
     functions = {f.name: BoundFunction(f, _as_impl(impls[f.name], f.name)) for f in spec.functions}
     return streams, functions

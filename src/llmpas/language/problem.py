@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+import numbers
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
+
+import numpy as np
 
 from llmpas.language.bindings import BoundFunction, BoundStream, StreamInfo, bind
 from llmpas.language.domain import Domain, parse_typed_list, read_domain, reader_for_formulas
@@ -14,39 +17,69 @@ from llmpas.language.errors import ModelError
 from llmpas.language.logic import (
     And,
     Atom,
+    EffectItem,
     Exists,
     Forall,
+    ForallEffect,
     Formula,
     FuncTerm,
     Imply,
+    Increase,
     Not,
     Or,
+    When,
     atoms_of,
     is_var,
 )
-from llmpas.language.sexpr import SExpr, SList, expect_list, expect_sym, parse_all, parse_definition
+from llmpas.language.sexpr import (
+    SExpr,
+    SList,
+    Sym,
+    expect_list,
+    expect_sym,
+    parse_all,
+    parse_definition,
+)
 from llmpas.language.streams import EMPTY_STREAMS, StreamSpec, read_streams
 
 
-class ValueNamer:
-    """Gives Python values PDDL names: equal hashable values share one, others go by identity."""
+def value_key(value: Any) -> Any:
+    """What makes two Python values the same object: equality for hashable values, the bytes,
+    shape and dtype for numpy arrays, identity for anything else."""
+    if isinstance(value, np.ndarray):
+        return ("np", value.dtype.str, value.shape, value.tobytes())
+    try:
+        key: Any = ("h", type(value), value)
+        hash(key)
+    except TypeError:
+        key = ("id", id(value))
+    return key
 
-    def __init__(self, taken: Iterable[str] = (), prefix: str = "v") -> None:
+
+class ValueNamer:
+    """Gives Python values PDDL names: equal values share one (see :func:`value_key`).
+
+    ``known`` (name -> value) seeds the namer, so a stream output equal to an init object's
+    value is that object."""
+
+    def __init__(
+        self, taken: Iterable[str] = (), prefix: str = "v", known: Mapping[str, Any] | None = None
+    ) -> None:
         self.taken = set(taken)
         self.prefix = prefix
         self.by_key: dict[Any, str] = {}
         self.values: dict[str, Any] = {}
+        for n, v in sorted((known or {}).items()):
+            if not isinstance(v, str):
+                self.by_key.setdefault(value_key(v), n)
+                self.taken.add(n)
 
     def name(self, value: Any) -> str:
         if isinstance(value, str):
             return value.lower()
-        try:
-            key: Any = ("h", type(value), value)
-            hash(key)
-        except TypeError:
-            key = ("id", id(value))
+        key = value_key(value)
         if key not in self.by_key:
-            n = len(self.by_key)
+            n = len(self.values)  # names generated so far (known values are not counted)
             while f"{self.prefix}{n}" in self.taken:
                 n += 1
             nm = f"{self.prefix}{n}"
@@ -70,9 +103,11 @@ class Problem:
     costs: Mapping[FuncTerm, float] = field(default_factory=dict)
     object_types: Mapping[str, str] = field(default_factory=dict)
     name: str = "problem"
+    spelling: Mapping[str, str] = field(default_factory=dict)  # name -> as the file writes it
 
     def __post_init__(self) -> None:
-        for attr in ("objects", "bound_streams", "bound_functions", "costs", "object_types"):
+        attrs = ("objects", "bound_streams", "bound_functions", "costs", "object_types", "spelling")
+        for attr in attrs:
             object.__setattr__(self, attr, MappingProxyType(dict(getattr(self, attr))))
         object.__setattr__(self, "init", frozenset(self.init))
         _check_problem(self)
@@ -96,16 +131,20 @@ class Problem:
 
         ``objects`` names objects that no init atom mentions; as a mapping it also gives the
         Python value of named objects (e.g. ``{"p_cube": Placement(...)}``)."""
-        init = list(init)
+        init, equal = _split_costs(list(init))
+        costs = {**equal, **(costs or {})}
         given = {k.lower(): v for k, v in objects.items()} if isinstance(objects, Mapping) else {}
+        written = list(objects)
         objects = [o.lower() for o in objects]
+        spelling = _spelling(init, written)
         names = _string_names(init, goal) | set(objects)
-        namer = ValueNamer(taken=[c.name for c in domain.constants] + sorted(names))
+        namer = ValueNamer(taken=[c.name for c in domain.constants] + sorted(names), known=given)
         atoms = [_atom_from(x, namer) for x in init]
         goal_f = _goal_from(goal, domain, namer)
         cost_map = {
             FuncTerm(str(k[0]).lower(), tuple(namer.name(a) for a in k[1:])): float(v)
-            for k, v in (costs or {}).items()
+            for k, v in costs.items()
+            if str(k[0]).lower() != TOTAL_COST
         }
         names = {o.lower() for o in objects} | {t for a in atoms for t in a.args}
         names -= {c.name for c in domain.constants}
@@ -117,11 +156,23 @@ class Problem:
                     f"goal: unknown object {unknown[0]!r} in {a} (not in init or objects)"
                 )
         # sorted: a set's order depends on the string hash seed, and this order is the objects'
-        values = {n: given.get(n, namer.values.get(n, n)) for n in sorted(names)}
+        # a name stands for itself, spelled as first written
+        values = {n: given.get(n, namer.values.get(n, spelling.get(n, n))) for n in sorted(names)}
         bs, bf = bind(streams, implementations or {}, info)
         types = dict.fromkeys(values, "object")  # objects from Python are untyped
+        spelled = {n: spelling[n] for n in values if n in spelling}
         return cls(
-            domain, streams, values, frozenset(atoms), goal_f, bs, bf, cost_map, types, name=name
+            domain,
+            streams,
+            values,
+            frozenset(atoms),
+            goal_f,
+            bs,
+            bf,
+            cost_map,
+            types,
+            name=name,
+            spelling=spelled,
         )
 
     def with_state(
@@ -141,9 +192,44 @@ class Problem:
     def value(self, name: str) -> Any:
         return self.objects.get(name, name)
 
+    def written(self, name: str) -> str:
+        """An object's name as the problem file writes it (PDDL matches names in any case)."""
+        return self.spelling.get(name, name)
+
     @property
     def all_objects(self) -> tuple[str, ...]:
         return tuple(sorted(set(self.objects) | {c.name for c in self.domain.constants}))
+
+
+TOTAL_COST = "total-cost"  # the planner sets it to 0 itself: a given initial value is ignored
+
+
+def _split_costs(
+    init: list[Atom | tuple[Any, ...]],
+) -> tuple[list[Atom | tuple[Any, ...]], dict[tuple[Any, ...], float]]:
+    """PDDLStream's ``Equal(('Cost',), 1)`` init items, i.e. ``('=', ('Cost',), 1)``, are
+    function values, not atoms."""
+    atoms: list[Atom | tuple[Any, ...]] = []
+    costs: dict[tuple[Any, ...], float] = {}
+    for x in init:
+        if not (isinstance(x, tuple) and x and isinstance(x[0], str) and x[0] == "="):
+            atoms.append(x)
+            continue
+        if len(x) != 3 or not isinstance(x[1], tuple) or not x[1] or not isinstance(x[1][0], str):
+            raise ModelError(f"init: {x!r}: expected ('=', (FUNCTION, ARG, ...), NUMBER)")
+        if isinstance(x[2], bool) or not isinstance(x[2], numbers.Real):
+            raise ModelError(f"init: {x!r}: the value of {x[1]!r} is not a number")
+        costs[x[1]] = float(x[2])
+    return atoms, costs
+
+
+def _spelling(init: Iterable[Any], objects: Iterable[str]) -> dict[str, str]:
+    """Object name (lower case) -> as first written, for names given as strings."""
+    written = [a for x in init if isinstance(x, tuple) for a in x[1:] if isinstance(a, str)]
+    out: dict[str, str] = {}
+    for a in [*objects, *written]:
+        out.setdefault(a.lower(), a)
+    return out
 
 
 def _string_names(init: Iterable[Any], goal: Any) -> set[str]:
@@ -195,6 +281,8 @@ def known_predicates(domain: Domain, streams: StreamSpec) -> dict[str, int]:
     for n, arity in streams.certified_predicates.items():
         out.setdefault(n, arity)
     for s in streams.streams:
+        if s.is_predicate:  # an external predicate: its own name, the arity of its head
+            out.setdefault(s.name, len(s.inputs))
         for a in s.domain:
             out.setdefault(a.predicate, len(a.args))
     out["="] = 2
@@ -203,6 +291,7 @@ def known_predicates(domain: Domain, streams: StreamSpec) -> dict[str, int]:
 
 def _check_problem(p: Problem) -> None:
     certified = p.streams.certified_predicates
+    certified |= {s.name: len(s.inputs) for s in p.streams.streams if s.is_predicate}
     for pred, (arity, pos) in p.domain.undeclared.items():
         if pred not in certified:
             raise pos.error(f"predicate '{pred}' is neither declared nor certified by a stream")
@@ -227,6 +316,29 @@ def _check_problem(p: Problem) -> None:
         _check_atom(a, known, objs | {t for t in a.args if is_var(t)}, "goal", p.domain, init=False)
     for term, value in p.costs.items():
         _check_cost(term, value, p, objs)
+
+
+def missing_function_value(p: Problem) -> str | None:
+    """Says which function an action's cost reads that has no value at all (neither in init
+    nor from a ``:function``), or None. Fast Downward would silently drop such actions."""
+    given = {t.name for t in p.costs} | set(p.bound_functions)
+    for act in p.domain.actions:
+        for term in _cost_terms(act.effects):
+            if term.name not in given:
+                return (
+                    f"action '{act.name}' adds {term} to total-cost, but no value of "
+                    f"'{term.name}' is given: add '(= ({term.name} ...) NUMBER)' to :init or "
+                    f"'(:function ({term.name} ...) ...)' to the stream file"
+                )
+    return None
+
+
+def _cost_terms(effects: Iterable[EffectItem]) -> Iterator[FuncTerm]:
+    for e in effects:
+        if isinstance(e, Increase) and isinstance(e.amount, FuncTerm):
+            yield e.amount
+        elif isinstance(e, When | ForallEffect):
+            yield from _cost_terms(e.effects)
 
 
 def _check_cost(term: FuncTerm, value: float, p: Problem, objs: set[str]) -> None:
@@ -272,11 +384,13 @@ class ProblemFile:
     init: tuple[Atom, ...]
     costs: dict[FuncTerm, float]
     goal: Formula
+    spelling: dict[str, str] = field(default_factory=dict)  # object name -> as written
 
 
 def parse_problem_text(text: str, domain: Domain, filename: str = "<problem>") -> ProblemFile:
     root, name, sections = parse_definition(text, "problem", filename)
     objects: dict[str, str] = {}
+    spelling: dict[str, str] = {}
     init: list[Atom] = []
     costs: dict[FuncTerm, float] = {}
     goal: Formula | None = None
@@ -295,8 +409,11 @@ def parse_problem_text(text: str, domain: Domain, filename: str = "<problem>") -
                 raise s.pos.error(f"problem is for domain '{dom_name}', not '{domain.name}'")
         elif key == ":objects":
             objects.update({p.name: p.type for p in parse_typed_list(s.items[1:], ":objects")})
+            for x in s.items[1:]:
+                if isinstance(x, Sym):
+                    spelling.setdefault(x.text, x.written)
         elif key == ":init":
-            _read_init(s.items[1:], init, costs)
+            _read_init(s.items[1:], init, costs, domain)
         elif key == ":goal":
             goal = fr.formula(s[1], set())
         elif key in (":metric", ":requirements"):
@@ -305,10 +422,12 @@ def parse_problem_text(text: str, domain: Domain, filename: str = "<problem>") -
             raise s.pos.error(f"unknown problem section '{key}'")
     if goal is None:
         raise root.pos.error("problem has no ':goal'")
-    return ProblemFile(name, dom_name, objects, tuple(init), costs, goal)
+    return ProblemFile(name, dom_name, objects, tuple(init), costs, goal, spelling)
 
 
-def _read_init(items: tuple[SExpr, ...], init: list[Atom], costs: dict[FuncTerm, float]) -> None:
+def _read_init(
+    items: tuple[SExpr, ...], init: list[Atom], costs: dict[FuncTerm, float], domain: Domain
+) -> None:
     for x in items:
         s = expect_list(x, "an init atom")
         if not s.items or isinstance(s.items[0], SList):
@@ -328,7 +447,9 @@ def _read_init(items: tuple[SExpr, ...], init: list[Atom], costs: dict[FuncTerm,
                 raise s[2].pos.error(f"expected a number, found '{text}'") from None
             if not (value >= 0 and value != float("inf")):
                 raise s[2].pos.error(f"expected a finite number >= 0, found '{text}'")
-            costs[FuncTerm(head, args)] = value
+            if head != TOTAL_COST:
+                _known_function(term, head, len(args), domain)
+                costs[FuncTerm(head, args)] = value
             continue
         _no_nesting(s)
         init.append(
@@ -337,6 +458,14 @@ def _read_init(items: tuple[SExpr, ...], init: list[Atom], costs: dict[FuncTerm,
                 tuple(expect_sym(t, "an object").text for t in s.items[1:]),
             )
         )
+
+
+def _known_function(term: SList, name: str, arity: int, domain: Domain) -> None:
+    sig = domain.functions.get(name)
+    if sig is None:
+        raise term.pos.error(f"function '{name}' is not declared in the domain's ':functions'")
+    if sig.arity != arity:
+        raise term.pos.error(f"function '{name}' takes {sig.arity} arguments, given {arity}")
 
 
 def _no_nesting(s: SList) -> None:
@@ -353,8 +482,13 @@ def read_problem(
     streams: str | Path | StreamSpec | None = None,
     implementations: Mapping[str, Any] | None = None,
     info: Mapping[str, StreamInfo] | None = None,
+    values: Mapping[str, Any] | None = None,
 ) -> Problem:
-    """Read ``domain.pddl`` + ``problem.pddl`` (+ ``stream.pddl``) and bind implementations."""
+    """Read ``domain.pddl`` + ``problem.pddl`` (+ ``stream.pddl``) and bind implementations.
+
+    ``values`` gives the Python value of objects of the problem file (names matched without
+    regard to case), e.g. ``{"pA0": np.array([0.0, 1.5])}``: streams receive those values. Other
+    objects reach streams as their names, spelled as in the file."""
     dom = domain if isinstance(domain, Domain) else read_domain(domain)
     if streams is None:
         spec = EMPTY_STREAMS
@@ -365,11 +499,17 @@ def read_problem(
     path = Path(problem)
     pf = parse_problem_text(path.read_text(encoding="utf-8"), dom, str(path))
     bs, bf = bind(spec, implementations or {}, info)
+    given = {str(k).lower(): v for k, v in (values or {}).items()}
+    unknown = sorted(given.keys() - pf.objects.keys())
+    if unknown:
+        raise ModelError(
+            f"{path}: a value is given for {unknown[0]!r}, which is not an object here"
+        )
     try:
-        return Problem(
+        prob = Problem(
             dom,
             spec,
-            {o: o for o in pf.objects},
+            {o: given.get(o, pf.spelling.get(o, o)) for o in pf.objects},
             frozenset(pf.init),
             pf.goal,
             bs,
@@ -377,6 +517,11 @@ def read_problem(
             pf.costs,
             pf.objects,
             name=pf.name,
+            spelling=pf.spelling,
         )
     except ModelError as e:
         raise ModelError(f"{path}: {e}") from None
+    missing = missing_function_value(prob)
+    if missing:
+        raise ModelError(f"{path}: {missing}")
+    return prob

@@ -1,13 +1,13 @@
 """A small s-expression reader with source positions, for PDDL and stream files.
 
-Symbols are lower-cased (PDDL is case-insensitive); ``;`` starts a comment that runs to the end of
-the line, wherever it stands.
+Symbols are lower-cased (PDDL is case-insensitive; ``Sym.written`` keeps the spelling); ``;``
+starts a comment that runs to the end of the line, wherever it stands.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from llmpas.language.errors import PddlSyntaxError
 
@@ -28,9 +28,14 @@ class Sym:
 
     text: str
     pos: Pos
+    raw: str = field(default="", compare=False)  # as written (``text`` is lower-cased)
 
     def __str__(self) -> str:
         return self.text
+
+    @property
+    def written(self) -> str:
+        return self.raw or self.text
 
 
 @dataclass(frozen=True)
@@ -95,7 +100,7 @@ def parse_all(text: str, filename: str = "<string>") -> tuple[SExpr, ...]:
             node = SList(tuple(items), opened)
             (stack[-1][1] if stack else top).append(node)
         else:
-            sym = Sym(tok.lower(), pos)
+            sym = Sym(tok.lower(), pos, tok)
             (stack[-1][1] if stack else top).append(sym)
     if stack:
         raise stack[-1][0].error("'(' is never closed")

@@ -13,7 +13,8 @@ class PlannerConfig:
 
     ``defer``: when True, streams whose :class:`~llmpas.language.bindings.StreamInfo` says
     ``deferred`` are assumed satisfiable while planning and left for the executor; when False
-    (eager), every stream is evaluated at planning time.
+    (nothing deferred: every stream computed; ``--no-defer``, formerly called "eager"), every
+    stream is evaluated at planning time.
     """
 
     algorithm: Algorithm = "focused"

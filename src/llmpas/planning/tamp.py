@@ -21,13 +21,15 @@ from dataclasses import dataclass, field
 
 from llmpas.language.bindings import BoundStream
 from llmpas.language.logic import Atom, FuncTerm, Substitution
-from llmpas.language.problem import Problem
+from llmpas.language.problem import Problem, missing_function_value
 from llmpas.language.semantics import Semantics, State, preimage
 from llmpas.planning.compile import (
     COST_SCALE,
     CompiledDomain,
     compile_domain,
+    compile_goal,
     compile_task,
+    external_facts,
     function_values,
     inlinable_streams,
 )
@@ -85,8 +87,9 @@ class _Run:
         return b.schema.name in self.assumed
 
     def instantiated(self, b: BoundStream) -> bool:
-        """Whether the stream gets optimistic instances (inlined ones need none)."""
-        return b.schema.name not in self.inline
+        """Whether the stream gets optimistic instances (inlined ones need none, and streams
+        with ``p_success=0`` are never assumed)."""
+        return b.schema.name not in self.inline and not b.info.never_assumed
 
     def remaining(self) -> float:
         return self.config.max_time - (time.perf_counter() - self.started)
@@ -174,13 +177,17 @@ def _focused(run: _Run) -> PlanResult:
 
 
 def _negative_streams(run: _Run) -> list[BoundStream]:
-    """Non-deferred tests whose certified atoms occur negated: evaluated on every real binding."""
+    """Non-deferred tests whose certified atoms occur negated, and streams never assumed
+    (``p_success=0``): evaluated on every real binding before a search."""
     return [
         b
         for b in run.problem.bound_streams.values()
-        if b.schema.is_test
-        and not run.deferred(b)
-        and any(a.predicate in run.negative_tests for a in b.schema.certified)
+        if b.info.never_assumed
+        or (
+            b.schema.is_test
+            and not run.deferred(b)
+            and any(a.predicate in run.negative_tests for a in b.schema.certified)
+        )
     ]
 
 
@@ -320,7 +327,7 @@ def _retrace(
                 by_fact.setdefault(a, i)
     sem = Semantics(run.compiled.domain, _object_types(run, opt), run.costs)
     init = store.facts | store.rejected | set(by_fact)
-    support = preimage(sem, init, actions, run.problem.goal)
+    support = preimage(sem, init, actions, compile_goal(run.problem, run.negative_tests))
     if support is None:
         raise RuntimeError("the classical plan does not replay under the domain semantics")
     done: set[int] = set()
@@ -379,6 +386,7 @@ def _final_plan(
     deferred = tuple(d for st in steps for d in st.deferred)
     certified = {a for a in run.store.facts if a not in run.problem.init}
     certified |= {a for d in deferred for a in facts[d]}
+    certified |= external_facts(run.problem, run.store.rejected)
     return Plan(
         steps=tuple(steps),
         cost=classical_cost / COST_SCALE,
@@ -392,7 +400,8 @@ def _final_plan(
 def _unsolvable_message(run: _Run) -> str:
     n = len(run.store.records)
     exhausted = sum(r.exhausted for r in run.store.records.values())
+    missing = missing_function_value(run.problem)
     return (
         f"no plan: the classical planner found none after {run.iterations} iteration(s); "
-        f"{exhausted} of {n} stream instances exhausted"
+        f"{exhausted} of {n} stream instances exhausted" + (f" ({missing})" if missing else "")
     )

@@ -1,0 +1,11 @@
+(define (stream slide2d)
+  (:stream sample-pose
+    :inputs (?b ?r)
+    :domain (and (Block ?b) (Region ?r))
+    :outputs (?p)
+    :certified (and (Pose ?b ?p) (Contain ?b ?p ?r)))
+  (:stream test-cfree
+    :inputs (?b1 ?p1 ?b2 ?p2)
+    :domain (and (Pose ?b1 ?p1) (Pose ?b2 ?p2))
+    :certified (CFree ?b1 ?p1 ?b2 ?p2))
+)
