@@ -35,7 +35,17 @@ from typing import Any
 
 from rich.console import Console
 
-from llmpas.experiments.jobs import Job, add_llm_argument, backend, fingerprint, run_jobs
+from llmpas.experiments.jobs import (
+    ExecutorSpec,
+    Job,
+    add_executor_arguments,
+    add_llm_argument,
+    backend,
+    executor_from_args,
+    fingerprint,
+    llm_resources,
+    run_jobs,
+)
 from llmpas.experiments.suite import (
     HASH_SEEDS,
     SUITE_DIR,
@@ -84,6 +94,7 @@ class PromptingConfig:
     record: Path | None = None
     jobs: int = 1
     out_dir: Path = Path("results/prompting")
+    executor: ExecutorSpec = field(default_factory=ExecutorSpec)
 
     def __post_init__(self) -> None:
         bad = [m for m in self.methods if m not in METHODS]
@@ -317,7 +328,8 @@ def jobs_for(config: PromptingConfig, tasks: Sequence[SuiteTask]) -> list[Job[Pa
                 prompts = "" if is_oracle else _templates_digest()
                 digest = fingerprint([t.digest, asdict(loop), llm, record, prompts])
                 key = f"{method}/{_safe(llm)}/{t.name}/s{k}/{digest}"
-                out.append(Job(key, Payload(t.source, method, k, llm, record, loop)))
+                payload = Payload(t.source, method, k, llm, record, loop)
+                out.append(Job(key, payload, llm_resources(llm)))
     return out
 
 
@@ -326,7 +338,12 @@ def run_prompting(config: PromptingConfig, console: Console | None = None) -> Re
     console = console or Console()
     tasks = load_suite(config.suite, config.tasks)
     jobs = jobs_for(config, tasks)
-    if config.methods and config.llm != ORACLE and config.jobs == 1:
+    if (
+        config.methods
+        and config.llm != ORACLE
+        and config.jobs == 1
+        and config.executor.kind == "local"
+    ):
         # fail early on a bad spec (with --jobs N each worker process builds its own backend:
         # a local model is then loaded N times)
         build_llm(config.llm, None if config.record is None else str(config.record))
@@ -337,6 +354,7 @@ def run_prompting(config: PromptingConfig, console: Console | None = None) -> Re
         workers=config.jobs,
         description="prompting",
         console=console,
+        executor=config.executor,
     )
     order = ([ORACLE] if config.oracle else []) + list(config.methods)
     cells = summarise(records, order)
@@ -441,6 +459,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--record", help="record the LLM's answers into this cassette folder")
     p.add_argument("--jobs", type=int, default=1, help="samples run in parallel processes")
     p.add_argument("--out", default="results/prompting", help="folder for tables, plot, cache")
+    add_executor_arguments(p)
 
 
 def config_from_args(args: argparse.Namespace) -> PromptingConfig:
@@ -467,6 +486,7 @@ def config_from_args(args: argparse.Namespace) -> PromptingConfig:
         record=Path(args.record) if args.record else None,
         jobs=args.jobs,
         out_dir=Path(args.out),
+        executor=executor_from_args(args),
     )
 
 

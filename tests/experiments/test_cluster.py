@@ -1,0 +1,174 @@
+"""The job runner on a real Ray instance (two CPUs and one ``llm`` on 127.0.0.1, started once
+for these tests): the same tables as the local executor, lost workers retried or reported and
+never cached, LLM jobs held to the ``llm`` resource, and one line when Ray is missing."""
+
+from __future__ import annotations
+
+import csv
+import io
+import logging
+import os
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+import ray
+from rich.console import Console
+
+from llmpas.cli import main
+from llmpas.experiments.cluster import RayExecutor
+from llmpas.experiments.jobs import ExecutorError, Job, JobsLost, cached, run_jobs
+
+TIMINGS = {"latency", "wall_time", "time"}  # columns measured, not computed
+
+
+@pytest.fixture(scope="session")
+def cluster() -> Iterator[None]:
+    saved = os.environ.get("PYTHONHASHSEED")
+    os.environ["PYTHONHASHSEED"] = "0"  # the workers plan as the local subprocess does
+    try:
+        ray.init(
+            num_cpus=2,
+            resources={"llm": 1},
+            include_dashboard=False,
+            _node_ip_address="127.0.0.1",
+            object_store_memory=100 << 20,
+            logging_level=logging.WARNING,
+        )
+    finally:
+        if saved is None:
+            os.environ.pop("PYTHONHASHSEED")
+        else:
+            os.environ["PYTHONHASHSEED"] = saved
+    ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])  # the jobs below
+    yield
+    ray.shutdown()
+
+
+def quiet() -> Console:
+    return Console(file=io.StringIO(), width=200)
+
+
+def local_bench(argv: list[str]) -> None:
+    """``llmpas bench ...`` with the local executor, in a process with the workers' hash seed
+    (plans may depend on it; the executor must not)."""
+    import subprocess
+
+    env = {**os.environ, "PYTHONHASHSEED": "0"}
+    cmd = [sys.executable, "-m", "llmpas.cli", "bench", *argv]
+    done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+
+
+def rows_without_timings(path: Path) -> list[dict[str, str]]:
+    with path.open() as f:
+        return [{k: v for k, v in r.items() if k not in TIMINGS} for r in csv.DictReader(f)]
+
+
+def same_outputs(local: Path, remote: Path, table: str, csvs: tuple[str, ...]) -> None:
+    assert (remote / table).read_bytes() == (local / table).read_bytes()
+    for name in csvs:
+        assert rows_without_timings(remote / name) == rows_without_timings(local / name)
+    assert sorted(p.name for p in (remote / "cache").iterdir()) == sorted(
+        p.name for p in (local / "cache").iterdir()
+    )  # the same job keys
+
+
+def test_bench_prompting_on_ray_gives_the_local_table(cluster: None, tmp_path: Path) -> None:
+    args = ["prompting", "--llm", "oracle", "--methods", "flp", "--samples", "1"]
+    args += ["--tasks", "ol02-table1", "ol01-table2"]
+    local_bench([*args, "--out", str(tmp_path / "local")])
+    assert main(["bench", *args, "--out", str(tmp_path / "ray"), "--executor", "ray"]) == 0
+    csvs = ("prompting.csv", "prompting_samples.csv")
+    same_outputs(tmp_path / "local", tmp_path / "ray", "prompting.md", csvs)
+
+
+def test_bench_perturbation_on_ray_gives_the_local_table(cluster: None, tmp_path: Path) -> None:
+    args = ["perturbation", "--episodes", "2"]
+    local_bench([*args, "--out", str(tmp_path / "local")])
+    assert main(["bench", *args, "--out", str(tmp_path / "ray"), "--executor", "ray"]) == 0
+    local, remote = tmp_path / "local", tmp_path / "ray"
+    same_outputs(local, remote, "perturbation.md", ("perturbation.csv",))
+
+
+def dies_first(payload: tuple[str, int]) -> dict[str, Any]:
+    """Kill this worker process on the first attempt (the marker file says it happened)."""
+    marker, n = payload
+    if not Path(marker).exists():
+        Path(marker).write_text("killed")
+        os._exit(1)
+    return {"value": n * n, "pid": os.getpid()}
+
+
+def always_dies(payload: tuple[str, int]) -> dict[str, Any]:
+    marker, n = payload
+    if n == 2:
+        with Path(marker).open("a") as f:
+            f.write("x")
+        os._exit(1)
+    return {"value": n * n}
+
+
+def test_a_killed_worker_is_retried_and_the_sweep_finishes(cluster: None, tmp_path: Path) -> None:
+    cache = tmp_path / "cache"
+    for n in (0, 2):
+        (tmp_path / f"m{n}").write_text("not this one")
+    jobs = [Job(f"n{n}", (str(tmp_path / f"m{n}"), n)) for n in range(3)]
+    console = quiet()
+    out = run_jobs(jobs, dies_first, cache, executor=RayExecutor(retries=1), console=console)
+    assert [r["value"] for r in out] == [0, 1, 4]
+    assert (tmp_path / "m1").read_text() == "killed"  # job n1 really lost its first worker
+    assert [cached(cache, f"n{n}") for n in range(3)] == out
+    assert "1 retried" in console.file.getvalue()  # type: ignore[attr-defined]
+
+
+def test_a_job_lost_on_every_attempt_is_reported_never_cached(
+    cluster: None, tmp_path: Path
+) -> None:
+    cache, marker = tmp_path / "cache", tmp_path / "attempts"
+    jobs = [Job(f"n{n}", (str(marker), n)) for n in range(4)]
+    with pytest.raises(JobsLost, match=r"1 of 4 job\(s\) lost .*first: n2: 2 attempts"):
+        run_jobs(jobs, always_dies, cache, executor=RayExecutor(retries=1), console=quiet())
+    assert marker.read_text() == "xx"  # tried twice, no more
+    assert cached(cache, "n2") is None
+    assert [cached(cache, f"n{n}")["value"] for n in (0, 1, 3)] == [0, 1, 9]  # type: ignore[index]
+
+
+def one_at_a_time(payload: tuple[str, int]) -> dict[str, Any]:
+    """Hold a lock file for a while; a second holder at the same time is recorded."""
+    import time
+
+    folder, n = Path(payload[0]), payload[1]
+    try:
+        fd = os.open(folder / "lock", os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+    except FileExistsError:
+        (folder / f"overlap{n}").touch()
+        return {"n": n}
+    time.sleep(0.5)
+    os.close(fd)
+    os.unlink(folder / "lock")
+    return {"n": n}
+
+
+def test_llm_jobs_take_the_llm_resource(cluster: None, tmp_path: Path) -> None:
+    (tmp_path / "work").mkdir()
+    jobs = [Job(f"llm{n}", (str(tmp_path / "work"), n), {"llm": 1}) for n in range(3)]
+    run_jobs(jobs, one_at_a_time, tmp_path / "cache", executor=RayExecutor(), console=quiet())
+    assert sorted(p.name for p in (tmp_path / "work").iterdir()) == []  # one llm: never two
+    missing = [Job("gpu", (str(tmp_path), 0), {"gpu-model": 1})]
+    with pytest.raises(ExecutorError, match=r"offers 0 'gpu-model'.*--resources"):
+        run_jobs(missing, one_at_a_time, tmp_path / "cache", executor=RayExecutor())
+
+
+@pytest.mark.parametrize("bench", ["perturbation", "all"])
+def test_executor_ray_without_ray_names_the_extra(
+    bench: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setitem(sys.modules, "ray", None)  # import ray raises ImportError
+    argv = ["bench", bench, "--executor", "ray", "--out", str(tmp_path)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "pip install 'llmpas[cluster]'" in err
+    assert "Traceback" not in err and not (tmp_path / "cache").exists()
