@@ -172,3 +172,61 @@ def test_executor_ray_without_ray_names_the_extra(
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "pip install 'llmpas[cluster]'" in err
     assert "Traceback" not in err and not (tmp_path / "cache").exists()
+
+
+def beats(payload: tuple[str, int]) -> dict[str, Any]:
+    """Job 0 ends at once; the others beat (append to a file) for up to a minute."""
+    import time
+
+    path, n = Path(payload[0]), payload[1]
+    for _ in range(600 if n else 0):
+        with path.open("a") as f:
+            f.write(".")
+        time.sleep(0.1)
+    return {"n": n}
+
+
+class InterruptAfterFirst:
+    """The Ray executor, with Ctrl-C pressed on the driver once the first job has ended."""
+
+    def __init__(self) -> None:
+        self.inner = RayExecutor()
+
+    def run(self, jobs: Any, work: Any) -> Iterator[Any]:
+        from contextlib import closing
+
+        with closing(self.inner.run(jobs, work)) as events:
+            for event in events:
+                yield event
+                raise KeyboardInterrupt
+
+
+def test_ctrl_c_keeps_what_finished_and_stops_the_running_jobs(
+    cluster: None, tmp_path: Path
+) -> None:
+    import time
+
+    beat = tmp_path / "beats"
+    jobs = [Job(f"n{n}", (str(beat), n)) for n in range(3)]
+    executor = InterruptAfterFirst()
+    with pytest.raises(KeyboardInterrupt):
+        run_jobs(jobs, beats, tmp_path / "cache", executor=executor, console=quiet())
+    assert cached(tmp_path / "cache", "n0") == {"key": "n0", "n": 0}
+    assert [p.name for p in (tmp_path / "cache").iterdir()] == ["n0.json"]
+    before = beat.read_text() if beat.exists() else ""
+    time.sleep(1.5)  # a job still running would beat ~15 times meanwhile
+    assert (beat.read_text() if beat.exists() else "") == before
+
+
+def test_prompting_jobs_carry_their_task_file(tmp_path: Path) -> None:
+    """A cluster's workers need not have the suite at the driver's path."""
+    import shutil
+
+    from llmpas.experiments import prompting
+    from llmpas.experiments.suite import SUITE_DIR, load_suite
+
+    shutil.copy(SUITE_DIR / "ol02-table1.toml", tmp_path)
+    config = prompting.PromptingConfig(llm="oracle", methods=(), suite=tmp_path)
+    [job] = prompting.jobs_for(config, load_suite(tmp_path))
+    (tmp_path / "ol02-table1.toml").unlink()
+    assert prompting.run_job(job.payload)["success"] is True

@@ -26,6 +26,7 @@ metrics), ``prompting.csv`` (one row per method and anomaly type), ``prompting_s
 from __future__ import annotations
 
 import argparse
+import hashlib
 import logging
 import statistics
 from collections.abc import Sequence
@@ -54,6 +55,7 @@ from llmpas.experiments.suite import (
     judge,
     load_suite,
     load_task,
+    parse_task,
 )
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning import PlannerConfig
@@ -128,7 +130,8 @@ class PromptingConfig:
 
 @dataclass(frozen=True)
 class Payload:
-    """One job: run ``method`` (``oracle``: the upper bound) on one task file, sample ``sample``."""
+    """One job: run ``method`` (``oracle``: the upper bound) on one task file, sample ``sample``.
+    The file's content travels with the job (a cluster's workers need not have the file)."""
 
     task_file: str
     method: str
@@ -136,6 +139,7 @@ class Payload:
     llm: str  # the backend spec ("oracle" for the oracle row)
     record: str | None
     loop: LoopConfig
+    task_data: bytes | None = None  # the task file's content (None: read ``task_file``)
 
 
 # ------------------------------------------------------------------------------- backends
@@ -169,7 +173,10 @@ def loop_config(config: PromptingConfig, method: str, sample: int) -> LoopConfig
 
 def run_job(payload: Payload) -> dict[str, Any]:
     """Judge one sample (module level: it may run in another process)."""
-    task = load_task(payload.task_file)
+    if payload.task_data is None:
+        task = load_task(payload.task_file)
+    else:
+        task = parse_task(payload.task_data, payload.task_file)
     llm = build_llm(payload.llm, payload.record)
     j = judge(task, llm, payload.loop)
     log.info("%s %s #%d: %s", payload.method, task.name, payload.sample, j.verdict.value)
@@ -318,6 +325,7 @@ class Report:
 def jobs_for(config: PromptingConfig, tasks: Sequence[SuiteTask]) -> list[Job[Payload]]:
     rows = ([ORACLE] if config.oracle else []) + list(config.methods)
     out = []
+    data = {t.source: _content(t) for t in tasks}
     for method in rows:
         is_oracle = method == ORACLE
         llm = ORACLE if is_oracle else config.llm
@@ -328,9 +336,18 @@ def jobs_for(config: PromptingConfig, tasks: Sequence[SuiteTask]) -> list[Job[Pa
                 prompts = "" if is_oracle else _templates_digest()
                 digest = fingerprint([t.digest, asdict(loop), llm, record, prompts])
                 key = f"{method}/{_safe(llm)}/{t.name}/s{k}/{digest}"
-                payload = Payload(t.source, method, k, llm, record, loop)
+                payload = Payload(t.source, method, k, llm, record, loop, data[t.source])
                 out.append(Job(key, payload, llm_resources(llm)))
     return out
+
+
+def _content(task: SuiteTask) -> bytes | None:
+    """The task file's content, when it is still what the task was read from (its digest)."""
+    try:
+        raw = Path(task.source).read_bytes()
+    except OSError:
+        return None
+    return raw if hashlib.sha256(raw).hexdigest() == task.digest else None
 
 
 def run_prompting(config: PromptingConfig, console: Console | None = None) -> Report:
