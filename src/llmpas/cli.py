@@ -596,8 +596,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return handler(args, console)
     except (CliError, LanguageError) as e:
-        text = escape(str(e))  # brackets in a message are text, not markup
-        Console(stderr=True).print(f"[bold red]error:[/] {text}", highlight=False, soft_wrap=True)
+        text = escape(str(e))  # brackets (and :x: below) in a message are text, not markup
+        Console(stderr=True, emoji=False).print(
+            f"[bold red]error:[/] {text}", highlight=False, soft_wrap=True
+        )
         return 2
 
 

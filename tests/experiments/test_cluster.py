@@ -230,3 +230,16 @@ def test_prompting_jobs_carry_their_task_file(tmp_path: Path) -> None:
     [job] = prompting.jobs_for(config, load_suite(tmp_path))
     (tmp_path / "ol02-table1.toml").unlink()
     assert prompting.run_job(job.payload)["success"] is True
+
+
+def test_an_address_where_no_cluster_answers_is_one_line_not_a_wait() -> None:
+    import socket
+
+    from llmpas.experiments.cluster import reachable
+
+    with socket.socket() as s:  # a port nobody listens on once closed
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    for address in (f"127.0.0.1:{port}", f"ray://127.0.0.1:{port}"):
+        with pytest.raises(ExecutorError, match=f"--ray-address {address}: no Ray cluster"):
+            reachable(address)

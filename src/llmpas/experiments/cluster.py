@@ -14,6 +14,8 @@ a cluster (``pip install 'llmpas[cluster]'``; see docs/cluster.md).
 from __future__ import annotations
 
 import logging
+import os
+import socket
 from collections import deque
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
@@ -25,6 +27,7 @@ log = logging.getLogger(__name__)
 
 EXTRA = "pip install 'llmpas[cluster]'"
 POLL = 5.0  # seconds between checks that the cluster can still run the waiting jobs
+PROBE = 10.0  # seconds a cluster's address has to accept a connection
 
 
 def import_ray() -> Any:
@@ -41,7 +44,10 @@ def connect(ray: Any, address: str | None) -> None:
     an already initialised Ray (a test's, or an earlier sweep's) is used as it is."""
     if ray.is_initialized():
         return
+    address = address or os.environ.get("RAY_ADDRESS") or None
     where = address or "a local Ray instance"
+    if address is not None:
+        reachable(address)
     log.info("connecting to %s", where)
     try:
         ray.init(address=address, logging_level=logging.WARNING)
@@ -49,6 +55,23 @@ def connect(ray: Any, address: str | None) -> None:
         first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
         raise ExecutorError(
             f"--ray-address {where}: cannot join the Ray cluster: {first}"
+        ) from None
+
+
+def reachable(address: str, timeout: float = PROBE) -> None:
+    """ExecutorError unless ``HOST:PORT`` (or ``ray://HOST:PORT``) accepts a connection within
+    ``timeout`` seconds: Ray itself would wait for a cluster that is not there. ``auto`` and
+    other forms are left to Ray."""
+    host, _, port = address.removeprefix("ray://").rpartition(":")
+    if not host or not port.isdigit():
+        return
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=timeout):
+            pass
+    except OSError as e:
+        reason = e.strerror or type(e).__name__
+        raise ExecutorError(
+            f"--ray-address {address}: no Ray cluster answers there ({reason})"
         ) from None
 
 
@@ -96,10 +119,17 @@ class RayExecutor:
             raise ValueError(f"window must be >= 1, got {self.window}")
 
     def run(self, jobs: Sequence[Job[Any]], work: Work) -> Iterator[Event]:
+        """Join the cluster and check its resources now (before any progress is shown), then
+        run the jobs as the events are read."""
         ray = import_ray()
         connect(ray, self.address)
         need = _needs(jobs)
         check_resources(ray, need)
+        return self._events(ray, jobs, work, need)
+
+    def _events(
+        self, ray: Any, jobs: Sequence[Job[Any]], work: Work, need: Mapping[str, float]
+    ) -> Iterator[Event]:
         task = ray.remote(_call)
         window = self.window or max(2, 2 * int(ray.cluster_resources().get("CPU", 1)))
         lost_errors = _lost_errors(ray)

@@ -396,11 +396,11 @@ def run_jobs(
     if results:
         log.info("%s: %d of %d results cached in %s", description, len(results), len(jobs), cache)
     lost: dict[str, str] = {}
+    events = executor.run(todo, work) if todo else iter(())  # a cluster is joined here
     with progress_bar(console, description, len(jobs)) as advance:
         for _ in results:
             advance(Outcome.CACHED.value)
-        if todo:
-            _collect(executor.run(todo, work), cache, results, lost, advance)
+        _collect(events, cache, results, lost, advance)
     if lost:
         first = next(iter(lost.items()))
         raise JobsLost(
