@@ -243,3 +243,16 @@ def test_an_address_where_no_cluster_answers_is_one_line_not_a_wait() -> None:
     for address in (f"127.0.0.1:{port}", f"ray://127.0.0.1:{port}"):
         with pytest.raises(ExecutorError, match=f"--ray-address {address}: no Ray cluster"):
             reachable(address)
+
+
+def test_bench_all_sends_every_sweep_to_the_cluster(tmp_path: Path) -> None:
+    from llmpas.cli import build_parser
+    from llmpas.experiments.everything import AllConfig, plan_steps
+    from llmpas.experiments.jobs import ExecutorSpec, executor_from_args
+
+    spec = ExecutorSpec("ray", "head:6379")
+    parser = build_parser()
+    for step in plan_steps(AllConfig(llm="openai:m", out_dir=tmp_path, executor=spec)):
+        args = parser.parse_args(step.argv)  # every sweep accepts the options
+        expected = ExecutorSpec() if step.name == "validate-data" else spec
+        assert executor_from_args(args) == expected
