@@ -1,6 +1,7 @@
 """The job runner on a real Ray instance (two CPUs and one ``llm`` on 127.0.0.1, started once
-for these tests): the same tables as the local executor, lost workers retried or reported and
-never cached, LLM jobs held to the ``llm`` resource, and one line when Ray is missing."""
+for these tests and shut down after them): the same tables as the local executor, lost workers
+retried or reported and never cached, LLM jobs held to the ``llm`` resource, Ctrl-C, and one
+line when Ray is missing."""
 
 from __future__ import annotations
 
@@ -24,7 +25,7 @@ from llmpas.experiments.jobs import ExecutorError, Job, JobsLost, cached, run_jo
 TIMINGS = {"latency", "wall_time", "time"}  # columns measured, not computed
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")  # one Ray start: every Ray test is here
 def cluster() -> Iterator[None]:
     saved = os.environ.get("PYTHONHASHSEED")
     os.environ["PYTHONHASHSEED"] = "0"  # the workers plan as the local subprocess does
