@@ -257,3 +257,27 @@ def test_bench_all_sends_every_sweep_to_the_cluster(tmp_path: Path) -> None:
         args = parser.parse_args(step.argv)  # every sweep accepts the options
         expected = ExecutorSpec() if step.name == "validate-data" else spec
         assert executor_from_args(args) == expected
+
+
+def waits_for_cpu_job(payload: tuple[str, str]) -> dict[str, Any]:
+    """An LLM job that waits (a minute at most) for the CPU job's marker; the CPU job sets it."""
+    import time
+
+    marker, kind = Path(payload[0]), payload[1]
+    if kind == "cpu":
+        marker.touch()
+        return {"saw": True}
+    for _ in range(600):
+        if marker.exists():
+            return {"saw": True}
+        time.sleep(0.1)
+    return {"saw": False}
+
+
+def test_jobs_waiting_for_the_llm_do_not_hold_back_cpu_jobs(cluster: None, tmp_path: Path) -> None:
+    marker = str(tmp_path / "cpu-ran")
+    jobs = [Job(f"llm{n}", (marker, "llm"), {"llm": 1}) for n in range(2)]
+    jobs.append(Job("cpu", (marker, "cpu")))
+    executor = RayExecutor(window=1)  # one job of each kind in flight
+    out = run_jobs(jobs, waits_for_cpu_job, tmp_path / "cache", executor=executor, console=quiet())
+    assert [r["saw"] for r in out] == [True, True, True]

@@ -16,7 +16,7 @@ from __future__ import annotations
 import logging
 import os
 import socket
-from collections import deque
+from collections import Counter, deque
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -105,8 +105,9 @@ def _call(work: Work, payload: Any) -> dict[str, Any]:
 @dataclass(frozen=True)
 class RayExecutor:
     """Jobs as Ray tasks on the cluster at ``address``; a lost job runs at most ``retries``
-    more times. At most ``window`` jobs are submitted at once (None: twice the cluster's CPUs),
-    so the driver's memory stays bounded however long the sweep."""
+    more times. At most ``window`` jobs of each kind (the same resources) are submitted at once
+    (None: twice the cluster's CPUs), so the driver's memory stays bounded however long the
+    sweep."""
 
     address: str | None = None
     retries: int = 2
@@ -137,9 +138,7 @@ class RayExecutor:
         pending: dict[Any, tuple[Job[Any], int]] = {}
         try:
             while queue or pending:
-                while queue and len(pending) < window:
-                    job, attempt = queue.popleft()
-                    pending[self._submit(task, work, job)] = (job, attempt)
+                self._fill(task, work, queue, pending, window)
                 ready, _ = ray.wait(list(pending), num_returns=1, timeout=POLL)
                 if not ready:
                     check_resources(ray, need)
@@ -168,6 +167,25 @@ class RayExecutor:
                 except Exception as e:  # already finished or gone
                     log.debug("cancel: %s", e)
 
+    def _fill(
+        self,
+        task: Any,
+        work: Work,
+        queue: deque[tuple[Job[Any], int]],
+        pending: dict[Any, tuple[Job[Any], int]],
+        window: int,
+    ) -> None:
+        """Submit queued jobs, in order, while fewer than ``window`` of their kind (the same
+        resources) are in flight: LLM jobs waiting for an ``llm`` never hold back CPU jobs."""
+        busy = Counter(_shape(job) for job, _ in pending.values())
+        for _ in range(len(queue)):
+            job, attempt = queue.popleft()
+            if busy[_shape(job)] < window:
+                pending[self._submit(task, work, job)] = (job, attempt)
+                busy[_shape(job)] += 1
+            else:
+                queue.append((job, attempt))
+
     @staticmethod
     def _submit(task: Any, work: Work, job: Job[Any]) -> Any:
         return task.options(
@@ -177,6 +195,10 @@ class RayExecutor:
             retry_exceptions=False,
             name=job.key[:200],
         ).remote(work, job.payload)
+
+
+def _shape(job: Job[Any]) -> tuple[tuple[str, float], ...]:
+    return tuple(sorted(job.resources.items()))
 
 
 def _lost_errors(ray: Any) -> tuple[type[BaseException], ...]:
