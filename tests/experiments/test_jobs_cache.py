@@ -298,3 +298,29 @@ def test_only_jobs_that_talk_to_a_model_ask_for_the_llm_resource() -> None:
     assert llm_resources("llama-cpp") == {"llm": 1.0}
     with pytest.raises(ValueError, match="amount > 0"):
         Job("k", 1, {"llm": 0})
+
+
+def test_benches_never_cache_a_crashed_planner(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from llmpas.experiments import perturbation, planning_time
+
+    def crashed_trial(example: str, size: int, mode: str, trial: int, _: Any) -> Any:
+        status = "crashed" if mode == "eager" else "solved"
+        return planning_time.Trial(example, size, mode, trial, status, 1.0, 0, 0, 0, 0, 3)
+
+    monkeypatch.setattr(planning_time, "run_trial", crashed_trial)
+    bench = planning_time.BenchConfig(examples=("tamp2d",), sizes=(2,), trials=1, out_dir=tmp_path)
+    report = planning_time.run_planning_time(bench, quiet())
+    assert sorted(t.status for t in report.trials) == ["crashed", "solved"]  # shown this run
+    assert [p.name.split("_")[2] for p in (tmp_path / "cache").iterdir()] == ["deferred"]
+
+    def crashed_episode(k: int, mode: str, config: Any) -> Any:
+        status = "plan-crashed" if mode == "flat" else "success"
+        return perturbation.Outcome(k, mode, "pose 0.0", status, 0, 1, 1.0)
+
+    monkeypatch.setattr(perturbation, "run_episode", crashed_episode)
+    config = perturbation.PerturbationConfig(episodes=1, out_dir=tmp_path / "p")
+    outcomes, _ = perturbation.run_perturbation(config, quiet())
+    assert [o.status for o in outcomes] == ["success", "plan-crashed"]
+    assert [p.name.split("_")[0] for p in (tmp_path / "p" / "cache").iterdir()] == ["csubbt"]
