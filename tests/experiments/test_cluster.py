@@ -69,7 +69,10 @@ def rows_without_timings(path: Path) -> list[dict[str, str]]:
 
 
 def same_outputs(local: Path, remote: Path, table: str, csvs: tuple[str, ...]) -> None:
+    """The table and the plot byte for byte, the CSVs apart from timings, the same cache."""
     assert (remote / table).read_bytes() == (local / table).read_bytes()
+    plot = table.replace(".md", ".png")
+    assert (remote / plot).read_bytes() == (local / plot).read_bytes()
     for name in csvs:
         assert rows_without_timings(remote / name) == rows_without_timings(local / name)
     assert sorted(p.name for p in (remote / "cache").iterdir()) == sorted(
