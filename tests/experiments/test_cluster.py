@@ -1,7 +1,8 @@
-"""The job runner on a real Ray instance (two CPUs and one ``llm`` on 127.0.0.1, started once
-for these tests and shut down after them): the same tables as the local executor, lost workers
-retried or reported and never cached, LLM jobs held to the ``llm`` resource, Ctrl-C, and one
-line when Ray is missing."""
+"""The job runner on a real Ray instance (one node on this machine with two CPUs and one
+``llm``, started once for these tests and shut down after them): the same tables and plots as
+the local executor, lost workers retried or reported and never cached, LLM jobs held to the
+``llm`` resource, Ctrl-C, and one line when Ray is missing. (Ray itself replaces a loopback
+node address with the machine's own, so no address is given.)"""
 
 from __future__ import annotations
 
@@ -34,7 +35,6 @@ def cluster() -> Iterator[None]:
             num_cpus=2,
             resources={"llm": 1},
             include_dashboard=False,
-            _node_ip_address="127.0.0.1",
             object_store_memory=100 << 20,
             logging_level=logging.WARNING,
         )
