@@ -14,6 +14,7 @@ from typing import Any
 
 from rich.console import Console
 from rich.logging import RichHandler
+from rich.markup import escape
 from rich.table import Table
 
 from llmpas.language.errors import LanguageError
@@ -189,6 +190,7 @@ def _cmd_examples(args: argparse.Namespace, console: Console) -> int:
 
 
 def _cmd_bench_planning_time(args: argparse.Namespace, console: Console) -> int:
+    from llmpas.experiments.jobs import executor_from_args
     from llmpas.experiments.planning_time import BenchConfig, run_planning_time
 
     try:
@@ -199,6 +201,7 @@ def _cmd_bench_planning_time(args: argparse.Namespace, console: Console) -> int:
             sizes=tuple(args.sizes) if args.sizes else None,
             out_dir=Path(args.out),
             jobs=args.jobs,
+            executor=executor_from_args(args),
         )
     except ValueError as e:
         raise CliError(str(e)) from None
@@ -208,11 +211,16 @@ def _cmd_bench_planning_time(args: argparse.Namespace, console: Console) -> int:
 
 
 def _cmd_bench_perturbation(args: argparse.Namespace, console: Console) -> int:
+    from llmpas.experiments.jobs import executor_from_args
     from llmpas.experiments.perturbation import PerturbationConfig, run_perturbation
 
     try:
         config = PerturbationConfig(
-            episodes=args.episodes, seed=args.seed, out_dir=Path(args.out), jobs=args.jobs
+            episodes=args.episodes,
+            seed=args.seed,
+            out_dir=Path(args.out),
+            jobs=args.jobs,
+            executor=executor_from_args(args),
         )
     except ValueError as e:
         raise CliError(str(e)) from None
@@ -222,6 +230,8 @@ def _cmd_bench_perturbation(args: argparse.Namespace, console: Console) -> int:
 
 
 def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    from llmpas.experiments.jobs import add_executor_arguments
+
     p = sub.add_parser("bench", help="benchmarks and experiments")
     bsub = p.add_subparsers(dest="bench", required=True)
     pt = bsub.add_parser(
@@ -238,7 +248,8 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         default=1,
         help="parallel processes (> 1: timings are contended; results cached under OUT/cache)",
     )
-    pt.set_defaults(handler=_cmd_bench_planning_time)
+    add_executor_arguments(pt)
+    pt.set_defaults(handler=_one_line_errors(_cmd_bench_planning_time))
     pe = bsub.add_parser(
         "perturbation",
         help="household episodes with tolerable disturbances: CSubBT vs flat execution, no LLM",
@@ -249,7 +260,8 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     pe.add_argument(
         "--jobs", type=int, default=1, help="parallel processes (results cached under OUT/cache)"
     )
-    pe.set_defaults(handler=_cmd_bench_perturbation)
+    add_executor_arguments(pe)
+    pe.set_defaults(handler=_one_line_errors(_cmd_bench_perturbation))
     _add_bench_blocksworld(bsub)
     _add_bench_prompting(bsub)
     _add_bench_all(bsub)
@@ -289,11 +301,12 @@ def _one_line_errors(command: Handler) -> Handler:
     """``command`` with bad values and LLM failures turned into one-line CLI errors."""
 
     def handler(args: argparse.Namespace, console: Console) -> int:
+        from llmpas.experiments.jobs import JobsLost
         from llmpas.reasoning.llm import LLMError
 
         try:
             return command(args, console)
-        except (ValueError, LLMError) as e:
+        except (ValueError, LLMError, JobsLost) as e:
             raise CliError(str(e)) from None
 
     return handler
@@ -599,7 +612,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return handler(args, console)
     except (CliError, LanguageError) as e:
-        Console(stderr=True).print(f"[bold red]error:[/] {e}", highlight=False, soft_wrap=True)
+        text = escape(str(e))  # brackets (and :x: below) in a message are text, not markup
+        Console(stderr=True, emoji=False).print(
+            f"[bold red]error:[/] {text}", highlight=False, soft_wrap=True
+        )
         return 2
 
 

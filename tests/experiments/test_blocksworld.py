@@ -145,7 +145,7 @@ def test_resume_uses_cached_results(tmp_path: Path) -> None:
     assert again.requests == []
     cached = list((tmp_path / "cache").glob("copal_*.json"))
     assert len(cached) == 1
-    turns = json.loads(cached[0].read_text())["turns"]
+    turns = json.loads(cached[0].read_text())["result"]["turns"]
     assert [t["answer"] for t in turns] == [WRONG, RIGHT]
     other = BlocksConfig(
         methods=("copal",), sizes=(3,), count=1, out_dir=tmp_path, settings=Settings(rounds=2)

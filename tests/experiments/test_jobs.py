@@ -29,6 +29,7 @@ def test_results_come_back_in_job_order_and_are_cached(tmp_path: Path) -> None:
     out = run_jobs(jobs, square, tmp_path, console=quiet())
     assert [r["value"] for r in out] == [9, 1, 4]
     assert cached(tmp_path, "n=1") == {"key": "n=1", "value": 1}
+    assert cached(tmp_path, "n=4") is None
 
 
 def test_resume_runs_only_missing_jobs(tmp_path: Path) -> None:
@@ -63,7 +64,7 @@ def test_corrupt_cache_file_is_redone(tmp_path: Path) -> None:
     cache_file(tmp_path, "x").write_text("{not json")
     out = run_jobs([Job("x", 4)], square, tmp_path, console=quiet())
     assert out[0]["value"] == 16
-    assert json.loads(cache_file(tmp_path, "x").read_text())["value"] == 16
+    assert json.loads(cache_file(tmp_path, "x").read_text())["result"] == {"value": 16}
 
 
 def test_duplicate_keys_and_bad_worker_counts_are_rejected(tmp_path: Path) -> None:

@@ -44,7 +44,17 @@ from llmpas.experiments.blocks.tasks import (
     read_tasks,
     reference_plan,
 )
-from llmpas.experiments.jobs import Job, add_llm_argument, backend, fingerprint, run_jobs
+from llmpas.experiments.jobs import (
+    ExecutorSpec,
+    Job,
+    add_executor_arguments,
+    add_llm_argument,
+    backend,
+    executor_from_args,
+    fingerprint,
+    llm_resources,
+    run_jobs,
+)
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.reasoning.llm import LLM
 from llmpas.reasoning.methods import template
@@ -77,6 +87,7 @@ class BlocksConfig:
     settings: Settings = field(default_factory=Settings)
     jobs: int = 1
     out_dir: Path = Path("results/blocksworld")
+    executor: ExecutorSpec = field(default_factory=ExecutorSpec)
 
     def __post_init__(self) -> None:
         if not self.methods:
@@ -265,6 +276,7 @@ def run_blocksworld(
         workers=config.jobs,
         description="reference plans (Fast Downward)",
         console=console,
+        executor=config.executor,
     )
     references = {
         t.name: tuple(Step(p[0], tuple(p[1:])) for p in r["plan"])
@@ -290,7 +302,8 @@ def run_blocksworld(
                 config.settings,
                 llm if uses_llm else None,
             )
-            jobs.append(Job(f"{method}/{_safe(key_llm)}/{t.name}/{digest}", payload))
+            needs = llm_resources(config.llm) if uses_llm and llm is None else {}
+            jobs.append(Job(f"{method}/{_safe(key_llm)}/{t.name}/{digest}", payload, needs))
     results = run_jobs(
         jobs,
         run_job,
@@ -298,6 +311,7 @@ def run_blocksworld(
         workers=config.jobs,
         description=f"blocks world ({llm_name})",
         console=console,
+        executor=config.executor,
     )
     names = {f.name for f in TaskResult.__dataclass_fields__.values()}
     outcomes = tuple(TaskResult(**{k: v for k, v in r.items() if k in names}) for r in results)
@@ -350,6 +364,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--decoding", default="grammar", choices=DECODINGS)
     p.add_argument("--jobs", type=int, default=1, help="tasks run in parallel processes")
     p.add_argument("--out", default="results/blocksworld", help="folder for tables and plot")
+    add_executor_arguments(p)
 
 
 def command(args: argparse.Namespace, console: Console) -> int:
@@ -370,6 +385,7 @@ def command(args: argparse.Namespace, console: Console) -> int:
         ),
         jobs=args.jobs,
         out_dir=Path(args.out),
+        executor=executor_from_args(args),
     )
     report = run_blocksworld(config, console)
     console.print(f"wrote {', '.join(str(p) for p in report.files)}")

@@ -15,12 +15,17 @@ import argparse
 import shlex
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from rich.console import Console
 
-from llmpas.experiments.jobs import add_llm_argument
+from llmpas.experiments.jobs import (
+    ExecutorSpec,
+    add_executor_arguments,
+    add_llm_argument,
+    executor_from_args,
+)
 from llmpas.files import atomic_write
 
 ORACLE = "oracle"
@@ -53,6 +58,8 @@ class AllConfig:
     count: int = 20  # blocks world: instances per size
     quick: bool = False
     out_dir: Path = Path("results")
+    # every step but validate-data runs there
+    executor: ExecutorSpec = field(default_factory=ExecutorSpec)
 
     def __post_init__(self) -> None:
         if not self.llm:
@@ -70,7 +77,8 @@ def plan_steps(config: AllConfig) -> tuple[Step, ...]:
     methods = ("--methods", "none" if config.llm == ORACLE else "all")  # oracle: its row only
 
     def step(name: str, *argv: str) -> Step:
-        return Step(name, ("bench", name, *argv, "--out", str(config.out_dir / name)))
+        out = ("--out", str(config.out_dir / name))
+        return Step(name, ("bench", name, *argv, *out, *config.executor.argv()))
 
     steps = [] if quick else [Step("validate-data", ("bench", "validate-data", *jobs))]
     # planning-time runs its trials one at a time: timings measured in parallel are contended
@@ -170,6 +178,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--count", type=int, default=20, help="blocks world: instances per size")
     p.add_argument("--quick", action="store_true", help="a small slice of every experiment")
     p.add_argument("--out", default="results", help="one folder per experiment under this")
+    add_executor_arguments(p)
 
 
 def command(args: argparse.Namespace, console: Console, run: Runner) -> int:
@@ -180,7 +189,12 @@ def command(args: argparse.Namespace, console: Console, run: Runner) -> int:
         count=args.count,
         quick=args.quick,
         out_dir=Path(args.out),
+        executor=executor_from_args(args),
     )
+    if config.executor.kind == "ray":  # one line now, not one failure per step
+        from llmpas.experiments.cluster import import_ray
+
+        import_ray()
     outcomes = run_all(config, run, console)
     failed = [o.step.name for o in outcomes if o.status != 0]
     if failed:

@@ -11,7 +11,7 @@ reuses a stale result. Writes ``perturbation.csv``, ``perturbation.md`` and ``pe
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -19,7 +19,7 @@ import numpy as np
 import py_trees
 from rich.console import Console
 
-from llmpas.experiments.jobs import Job, fingerprint, run_jobs
+from llmpas.experiments.jobs import ExecutorSpec, Job, fingerprint, not_cacheable, run_jobs
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning import PlannerConfig
 from llmpas.worlds.household.decomposition import ExplorationConfig
@@ -41,6 +41,8 @@ class PerturbationConfig:
     out_dir: Path = Path("results/perturbation")
     max_time: float = 30.0  # planning limit per episode
     jobs: int = 1  # parallel processes
+    # where the jobs run (local: ``jobs`` processes)
+    executor: ExecutorSpec = field(default_factory=ExecutorSpec)
 
     def __post_init__(self) -> None:
         if self.episodes < 1:
@@ -171,7 +173,10 @@ def run_episode(k: int, mode: str, config: PerturbationConfig) -> Outcome:
 
 def run_job(payload: Payload) -> dict[str, Any]:
     """Run one episode in one mode (a module-level function: it may run in another process)."""
-    return asdict(run_episode(payload.episode, payload.mode, payload.config))
+    outcome = asdict(run_episode(payload.episode, payload.mode, payload.config))
+    if outcome["status"] == "plan-crashed":  # the planner crashed: not an outcome to keep
+        return not_cacheable(outcome, "the planner crashed")
+    return outcome
 
 
 def jobs_for(config: PerturbationConfig) -> list[Job[Payload]]:
@@ -206,6 +211,7 @@ def run_perturbation(
         workers=config.jobs,
         description="perturbation",
         console=console,
+        executor=config.executor,
     )
     outcomes = [_outcome(r) for r in results]
     files = _write(outcomes, config)

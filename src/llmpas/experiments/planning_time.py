@@ -24,7 +24,7 @@ from typing import Any
 from rich.console import Console
 
 from llmpas.examples import get_example
-from llmpas.experiments.jobs import Job, fingerprint, run_jobs
+from llmpas.experiments.jobs import ExecutorSpec, Job, fingerprint, not_cacheable, run_jobs
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning import PlannerConfig, solve
 
@@ -43,6 +43,8 @@ class BenchConfig:
     out_dir: Path = Path("results/planning-time")
     algorithm: str = "focused"
     jobs: int = 1  # parallel processes (> 1: contended timings)
+    # where the trials run (local: ``jobs`` processes)
+    executor: ExecutorSpec = field(default_factory=ExecutorSpec)
 
     def __post_init__(self) -> None:
         if self.trials < 1:
@@ -171,7 +173,10 @@ def run_job(payload: Payload) -> dict[str, Any]:
     records how many jobs ran in parallel while it was timed."""
     p = payload
     trial = run_trial(p.example, p.size, p.mode, p.trial, p.config)
-    return {**asdict(trial), "jobs": p.config.jobs}
+    result = {**asdict(trial), "jobs": p.config.jobs}
+    if trial.status == "crashed":  # the planner crashed: not a timing to keep
+        return not_cacheable(result, "the planner crashed")
+    return result
 
 
 def jobs_for(config: BenchConfig) -> list[Job[Payload]]:
@@ -202,6 +207,12 @@ def run_planning_time(config: BenchConfig, console: Console | None = None) -> Re
             "(use --jobs 1 for timings to report)",
             config.jobs,
         )
+    if config.executor.kind != "local":
+        log.warning(
+            "planning-time on %s: trials run side by side on the cluster's CPUs, so timings "
+            "are contended (use the local executor with --jobs 1 for timings to report)",
+            config.executor.kind,
+        )
     results = run_jobs(
         jobs_for(config),
         run_job,
@@ -209,6 +220,7 @@ def run_planning_time(config: BenchConfig, console: Console | None = None) -> Re
         workers=config.jobs,
         description="planning-time",
         console=console,
+        executor=config.executor,
     )
     measured = max(int(r.get("jobs", 1)) for r in results)
     if measured > config.jobs:

@@ -26,6 +26,7 @@ metrics), ``prompting.csv`` (one row per method and anomaly type), ``prompting_s
 from __future__ import annotations
 
 import argparse
+import hashlib
 import logging
 import statistics
 from collections.abc import Sequence
@@ -35,7 +36,17 @@ from typing import Any
 
 from rich.console import Console
 
-from llmpas.experiments.jobs import Job, add_llm_argument, backend, fingerprint, run_jobs
+from llmpas.experiments.jobs import (
+    ExecutorSpec,
+    Job,
+    add_executor_arguments,
+    add_llm_argument,
+    backend,
+    executor_from_args,
+    fingerprint,
+    llm_resources,
+    run_jobs,
+)
 from llmpas.experiments.suite import (
     HASH_SEEDS,
     SUITE_DIR,
@@ -44,6 +55,7 @@ from llmpas.experiments.suite import (
     judge,
     load_suite,
     load_task,
+    parse_task,
 )
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning import PlannerConfig
@@ -84,6 +96,7 @@ class PromptingConfig:
     record: Path | None = None
     jobs: int = 1
     out_dir: Path = Path("results/prompting")
+    executor: ExecutorSpec = field(default_factory=ExecutorSpec)
 
     def __post_init__(self) -> None:
         bad = [m for m in self.methods if m not in METHODS]
@@ -117,7 +130,8 @@ class PromptingConfig:
 
 @dataclass(frozen=True)
 class Payload:
-    """One job: run ``method`` (``oracle``: the upper bound) on one task file, sample ``sample``."""
+    """One job: run ``method`` (``oracle``: the upper bound) on one task file, sample ``sample``.
+    The file's content travels with the job (a cluster's workers need not have the file)."""
 
     task_file: str
     method: str
@@ -125,6 +139,7 @@ class Payload:
     llm: str  # the backend spec ("oracle" for the oracle row)
     record: str | None
     loop: LoopConfig
+    task_data: bytes | None = None  # the task file's content (None: read ``task_file``)
 
 
 # ------------------------------------------------------------------------------- backends
@@ -158,7 +173,10 @@ def loop_config(config: PromptingConfig, method: str, sample: int) -> LoopConfig
 
 def run_job(payload: Payload) -> dict[str, Any]:
     """Judge one sample (module level: it may run in another process)."""
-    task = load_task(payload.task_file)
+    if payload.task_data is None:
+        task = load_task(payload.task_file)
+    else:
+        task = parse_task(payload.task_data, payload.task_file)
     llm = build_llm(payload.llm, payload.record)
     j = judge(task, llm, payload.loop)
     log.info("%s %s #%d: %s", payload.method, task.name, payload.sample, j.verdict.value)
@@ -307,6 +325,7 @@ class Report:
 def jobs_for(config: PromptingConfig, tasks: Sequence[SuiteTask]) -> list[Job[Payload]]:
     rows = ([ORACLE] if config.oracle else []) + list(config.methods)
     out = []
+    data = {t.source: _content(t) for t in tasks}
     for method in rows:
         is_oracle = method == ORACLE
         llm = ORACLE if is_oracle else config.llm
@@ -317,8 +336,18 @@ def jobs_for(config: PromptingConfig, tasks: Sequence[SuiteTask]) -> list[Job[Pa
                 prompts = "" if is_oracle else _templates_digest()
                 digest = fingerprint([t.digest, asdict(loop), llm, record, prompts])
                 key = f"{method}/{_safe(llm)}/{t.name}/s{k}/{digest}"
-                out.append(Job(key, Payload(t.source, method, k, llm, record, loop)))
+                payload = Payload(t.source, method, k, llm, record, loop, data[t.source])
+                out.append(Job(key, payload, llm_resources(llm)))
     return out
+
+
+def _content(task: SuiteTask) -> bytes | None:
+    """The task file's content, when it is still what the task was read from (its digest)."""
+    try:
+        raw = Path(task.source).read_bytes()
+    except OSError:
+        return None
+    return raw if hashlib.sha256(raw).hexdigest() == task.digest else None
 
 
 def run_prompting(config: PromptingConfig, console: Console | None = None) -> Report:
@@ -326,7 +355,12 @@ def run_prompting(config: PromptingConfig, console: Console | None = None) -> Re
     console = console or Console()
     tasks = load_suite(config.suite, config.tasks)
     jobs = jobs_for(config, tasks)
-    if config.methods and config.llm != ORACLE and config.jobs == 1:
+    if (
+        config.methods
+        and config.llm != ORACLE
+        and config.jobs == 1
+        and config.executor.kind == "local"
+    ):
         # fail early on a bad spec (with --jobs N each worker process builds its own backend:
         # a local model is then loaded N times)
         build_llm(config.llm, None if config.record is None else str(config.record))
@@ -337,6 +371,7 @@ def run_prompting(config: PromptingConfig, console: Console | None = None) -> Re
         workers=config.jobs,
         description="prompting",
         console=console,
+        executor=config.executor,
     )
     order = ([ORACLE] if config.oracle else []) + list(config.methods)
     cells = summarise(records, order)
@@ -441,6 +476,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--record", help="record the LLM's answers into this cassette folder")
     p.add_argument("--jobs", type=int, default=1, help="samples run in parallel processes")
     p.add_argument("--out", default="results/prompting", help="folder for tables, plot, cache")
+    add_executor_arguments(p)
 
 
 def config_from_args(args: argparse.Namespace) -> PromptingConfig:
@@ -467,6 +503,7 @@ def config_from_args(args: argparse.Namespace) -> PromptingConfig:
         record=Path(args.record) if args.record else None,
         jobs=args.jobs,
         out_dir=Path(args.out),
+        executor=executor_from_args(args),
     )
 
 

@@ -182,6 +182,11 @@ def load_task(path: str | Path) -> SuiteTask:
         raw = Path(path).read_bytes()
     except OSError as e:
         raise SuiteError(f"{source}: cannot read: {e.strerror or e}") from None
+    return parse_task(raw, source)
+
+
+def parse_task(raw: bytes, source: str) -> SuiteTask:
+    """Check one task file's content (read elsewhere, e.g. by a cluster's driver)."""
     try:
         data = tomllib.loads(raw.decode("utf-8"))
     except (UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
