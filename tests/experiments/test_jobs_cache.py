@@ -306,7 +306,7 @@ def test_benches_never_cache_a_crashed_planner(
     from llmpas.experiments import perturbation, planning_time
 
     def crashed_trial(example: str, size: int, mode: str, trial: int, _: Any) -> Any:
-        status = "crashed" if mode == "eager" else "solved"
+        status = "solved" if mode == "deferred" else "crashed"
         return planning_time.Trial(example, size, mode, trial, status, 1.0, 0, 0, 0, 0, 3)
 
     monkeypatch.setattr(planning_time, "run_trial", crashed_trial)
