@@ -93,6 +93,7 @@ return Array.from(document.images).map(i => [i.currentSrc.slice(0, 80), i.comple
 def check(driver: Any, page: str | Path) -> PageCheck:
     """Load ``page`` and report what a reader's browser would see (lazy images scrolled in)."""
     open_page(driver, page)
+    alerted = _alerted(driver)
     driver.execute_script(
         "document.querySelectorAll('img[loading=lazy]').forEach(i => i.loading = 'eager');"
         "document.querySelectorAll('details').forEach(d => d.open = true);"
@@ -116,18 +117,22 @@ def check(driver: Any, page: str | Path) -> PageCheck:
         broken=broken,
         sections=tuple(str(s) for s in sections),
         scripts=int(scripts),
-        alerted=_alerted(driver),
+        alerted=_alerted(driver) or alerted,
     )
 
 
 def _alerted(driver: Any) -> bool:
+    """Whether dialogs (alert, confirm) were open; they are dismissed."""
     from selenium.common.exceptions import NoAlertPresentException
 
-    try:
-        driver.switch_to.alert.dismiss()
-        return True
-    except NoAlertPresentException:
-        return False
+    seen = False
+    for _ in range(20):
+        try:
+            driver.switch_to.alert.dismiss()
+        except NoAlertPresentException:
+            break
+        seen = True
+    return seen
 
 
 def screenshot(page: str | Path, out: str | Path, width: int = 1280, full: bool = True) -> Path:

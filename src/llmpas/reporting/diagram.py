@@ -93,8 +93,9 @@ def _node(el: ET.Element, budget: list[int]) -> Node:
 
 
 def _quote(s: str) -> str:
-    s = clean(s).replace("\\", "\\\\").replace('"', '\\"').replace("\n", " ")
-    return f'"{s[:80]}"'
+    lines = [line[:70] for line in clean(s).splitlines()[:3]]
+    s = "\n".join(lines).replace("\\", "\\\\").replace('"', '\\"')
+    return '"' + s.replace("\n", "\\n") + '"'
 
 
 def to_dot(tree: Tree) -> str:

@@ -25,20 +25,17 @@ class Markup(str):
 
 
 def clean(value: object) -> str:
-    """``value`` as text with nothing that could act: C0/C1 controls become their visible
-    pictures (ESC -> ␛) or ``\\xNN``, invisible direction marks ``<U+202E>``, lone surrogates
-    U+FFFD. Newlines and tabs stay."""
+    """``value`` as text with nothing that could act: C0/C1 controls (terminal escapes) are
+    shown as ``\\xNN``, invisible and direction marks as ``<U+202E>``, lone surrogates as U+FFFD.
+    Newlines and tabs stay."""
     s = value if isinstance(value, str) else str(value)
-    s = _SURROGATE.sub("\ufffd", s)
+    s = _SURROGATE.sub("\ufffd", s).replace("\r\n", "\n")
     s = _CONTROL.sub(_control, s)
     return _INVISIBLE.sub(lambda m: f"<U+{ord(m.group()):04X}>", s)
 
 
 def _control(m: re.Match[str]) -> str:
-    c = ord(m.group())
-    if c < 0x20:
-        return chr(0x2400 + c)
-    return "\u2421" if c == 0x7F else f"\\x{c:02x}"
+    return f"\\x{ord(m.group()):02x}"
 
 
 def text(value: object) -> Markup:

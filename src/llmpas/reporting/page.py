@@ -432,7 +432,9 @@ def _reasoning(r: Round, x: Reasoning) -> Markup:
     for e in x.exchanges:
         if e.tag.startswith("repair") and e.messages:
             sent = e.messages[-1][1]
-            validator.append(tag("li", f"sent back ({e.tag}): ", tag("code", sent), class_="sent"))
+            reasons = [x[2:] for x in sent.splitlines() if x.startswith("- ")] or [sent]
+            for why in reasons:
+                validator.append(tag("li", f"sent back ({e.tag}): ", tag("code", why), class_="sent"))
     validator += [tag("li", f"rejected: {err}", class_="sent") for err in x.errors]
     validator += [tag("li", note, class_="note") for note in x.notes]
     if not validator:

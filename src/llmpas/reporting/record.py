@@ -194,6 +194,10 @@ class RunRecord:
     def task(self) -> str:
         return get_str(self.about, "task") or (self.rounds[0].goal if self.rounds else "")
 
+    def round_of(self, media: Media) -> Round | None:
+        """The round an image was made in (None: not recorded)."""
+        return next((r for r in self.rounds if media in self.media_of(r)), None)
+
     def media_of(self, rnd: Round) -> list[Media]:
         """The images made while ``rnd`` executed (those made after the last episode: with
         the last one's)."""
