@@ -10,6 +10,7 @@ from typing import Any
 
 import pytest
 
+from llmpas.cli import main
 from llmpas.reporting import browser, build_report, read_run, render
 
 from .conftest import HOSTILE
@@ -74,6 +75,10 @@ def test_the_screenshot_is_the_whole_page(main_job: Path, tmp_path: Path) -> Non
         colours = img.convert("RGB").resize((50, 200)).getcolors(10_000)
     assert width == 1000 and height > 3000  # full page, not the window
     assert colours is not None and len(colours) > 50  # a drawn page, not a blank one
+    top = tmp_path / "top.png"
+    assert main(["report", str(main_job), "--screenshot", str(top), "--height", "700"]) == 0
+    with Image.open(top) as img:
+        assert img.size == (1280, 700)
 
 
 def test_a_page_built_again_after_a_run_loads_the_same(driver: Any, tmp_path: Path) -> None:

@@ -98,11 +98,7 @@ def check(driver: Any, page: str | Path) -> PageCheck:
         "document.querySelectorAll('img[loading=lazy]').forEach(i => i.loading = 'eager');"
         "document.querySelectorAll('details').forEach(d => d.open = true);"
     )
-    driver.execute_async_script(
-        "const done = arguments[arguments.length - 1];"
-        "Promise.all(Array.from(document.images).map(i => i.decode().catch(() => null)))"
-        ".then(() => done(true));"
-    )
+    _decoded(driver)
     images = driver.execute_script(_IMAGES)
     broken = tuple(str(src) for src, _, width in images if not width)
     sections = driver.execute_script(
@@ -121,6 +117,15 @@ def check(driver: Any, page: str | Path) -> PageCheck:
     )
 
 
+def _decoded(driver: Any) -> None:
+    """Wait until every image has decoded (or failed to)."""
+    driver.execute_async_script(
+        "const done = arguments[arguments.length - 1];"
+        "Promise.all(Array.from(document.images).map(i => i.decode().catch(() => null)))"
+        ".then(() => done(true));"
+    )
+
+
 def _alerted(driver: Any) -> bool:
     """Whether dialogs (alert, confirm) were open; they are dismissed."""
     from selenium.common.exceptions import NoAlertPresentException
@@ -135,24 +140,23 @@ def _alerted(driver: Any) -> bool:
     return seen
 
 
-def screenshot(page: str | Path, out: str | Path, width: int = 1280, full: bool = True) -> Path:
-    """A PNG of ``page`` as Chromium draws it (the whole page with ``full``), written
-    atomically."""
+def screenshot(
+    page: str | Path, out: str | Path, width: int = 1280, height: int | None = None
+) -> Path:
+    """A PNG of ``page`` as Chromium draws it: the whole page, or its top ``height`` pixels;
+    written atomically."""
     from llmpas.files import atomic_write
 
     with chromium(width) as driver:
         open_page(driver, page)
-        if full:
-            height = driver.execute_script(
-                "return Math.ceil(document.documentElement.scrollHeight);"
-            )
-            driver.execute_cdp_cmd(
-                "Emulation.setDeviceMetricsOverride",
-                {"width": width, "height": int(height), "deviceScaleFactor": 1, "mobile": False},
-            )
-        shot = driver.execute_cdp_cmd(
-            "Page.captureScreenshot", {"format": "png", "captureBeyondViewport": full}
+        _decoded(driver)
+        full = driver.execute_script("return Math.ceil(document.documentElement.scrollHeight);")
+        shown = int(full) if height is None else min(int(full), height)
+        driver.execute_cdp_cmd(
+            "Emulation.setDeviceMetricsOverride",
+            {"width": width, "height": shown, "deviceScaleFactor": 1, "mobile": False},
         )
+        shot = driver.execute_cdp_cmd("Page.captureScreenshot", {"format": "png"})
     return atomic_write(out, base64.b64decode(shot["data"]))
 
 

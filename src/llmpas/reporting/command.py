@@ -49,14 +49,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("run_dir", help="a folder written by 'llmpas run/execute ... --out'")
     p.add_argument("--screenshot", help="also write a full-page PNG of it (headless Chromium)")
     p.add_argument("--width", type=int, default=1280, help="browser width for the screenshot")
+    p.add_argument(
+        "--height", type=int, help="only the top HEIGHT pixels (default: the whole page)"
+    )
 
 
 def command(args: argparse.Namespace, console: Console) -> int:
     """``llmpas report``; a folder that cannot be reported is a ValueError of one line."""
     from llmpas.reporting import browser
 
-    if args.width < 320 or args.width > 4000:
+    if not 320 <= args.width <= 4000:
         raise ValueError(f"--width {args.width}: give 320 to 4000 pixels")
+    if args.height is not None and not 100 <= args.height <= 30000:
+        raise ValueError(f"--height {args.height}: give 100 to 30000 pixels")
     try:
         built = build_report(Path(args.run_dir))
     except (ReportError, OSError) as e:
@@ -64,7 +69,7 @@ def command(args: argparse.Namespace, console: Console) -> int:
     console.print(f"wrote {built.path} ({built.bytes / 1e6:.2f} MB in {built.seconds:.2f} s)")
     if args.screenshot:
         try:
-            shot = browser.screenshot(built.path, args.screenshot, width=args.width)
+            shot = browser.screenshot(built.path, args.screenshot, args.width, args.height)
         except browser.BrowserMissing as e:
             raise ValueError(str(e)) from None
         console.print(f"wrote {shot}")

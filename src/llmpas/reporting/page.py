@@ -87,10 +87,10 @@ dl.facts dt { color:var(--muted); } dl.facts dd { margin:0; }
 .arrow { align-self:center; color:var(--muted); font-size:20px; }
 .small { font-size:12.5px; color:var(--muted); }
 ol.plan { margin:0; padding-left:24px; } ol.plan li { margin:2px 0; }
-.trees { display:flex; flex-wrap:wrap; gap:12px; }
-.trees figure { margin:0; flex:1 1 100%; border:1px solid var(--line); border-radius:8px;
-  padding:8px; background:#fcfcfd; overflow:auto; }
-.trees img { max-width:100%; height:auto; display:block; margin:auto; }
+.trees { display:flex; gap:12px; overflow-x:auto; }
+.trees figure { margin:0; flex:0 0 auto; max-width:100%; border:1px solid var(--line);
+  border-radius:8px; padding:8px; background:#fcfcfd; overflow:auto; }
+.trees img { max-height:340px; max-width:100%; width:auto; display:block; margin:auto; }
 figcaption { font-size:12.5px; color:var(--muted); margin-bottom:6px; }
 .anomaly { border:1px solid #f1b0a8; border-left:6px solid var(--bad); background:#fff5f4;
   border-radius:8px; padding:12px 16px; margin:12px 0; }
@@ -102,9 +102,11 @@ th { background:#f3f4f7; font-weight:600; font-size:13px; }
 td.num { text-align:right; white-space:nowrap; font-variant-numeric:tabular-nums; }
 tr.e-failure td { background:#fdeeee; } tr.e-backtrack td { background:#fff7e3; }
 tr.e-anomaly td { background:#f9d6d2; font-weight:600; } tr.e-success td.st { color:var(--ok); }
-tr.shots td { background:#fbfbfc; }
-.shots figure { display:inline-block; margin:4px 8px 4px 0; vertical-align:top; width:200px; }
-.shots img { width:200px; height:auto; border-radius:6px; border:1px solid var(--line); }
+td.shots { width:280px; padding:2px 4px; }
+.shots figure { display:inline-block; margin:2px 4px 2px 0; vertical-align:top; width:132px; }
+.shots figcaption { font-size:11px; line-height:1.2; margin:1px 0 0; }
+.gallery figure { width:200px; }
+.shots img { width:100%; height:auto; border-radius:6px; border:1px solid var(--line); }
 .chips span { display:inline-block; background:#eef3fb; border:1px solid #c9d8ef; border-radius:6px;
   padding:1px 8px; margin:2px 4px 2px 0; }
 .chips.bad span { background:#fdeeee; border-color:#f1b0a8; }
@@ -360,47 +362,53 @@ def _anomaly(a: Mapping[str, Any]) -> Markup:
 
 
 def _figure(m: Media, images: Images) -> Markup:
-    img = void("img", src=images.src(m.path), alt=m.label or m.path, loading="lazy")
+    img = void("img", src=images.src(m.path), alt=m.label or m.path)
     caption = tag("figcaption", f"{m.kind}: {m.label}")
     return tag("figure", tag("a", img, href=href(m.path)), caption)
 
 
-def _shots_row(media: Sequence[Media], images: Images, cols: int) -> Markup:
-    figures = [_figure(m, images) for m in media]
-    return tag("tr", tag("td", tag("div", *figures, class_="shots"), colspan=cols), class_="shots")
+def _changed(e: Any, before: Mapping[str, Any]) -> str:
+    """The event's values that differ from the previous event's."""
+    values = get_map(e, "values")
+    return "  ".join(f"{k}={v}" for k, v in values.items() if before.get(k) != v)
+
+
+def _event_row(i: int | None, e: Any, before: Mapping[str, Any], shots: Markup) -> Markup:
+    t = get_float(e, "t")
+    status = get_str(e, "status")
+    return tag(
+        "tr",
+        tag("td", "" if i is None else str(i), class_="num"),
+        tag("td", "" if t is None else f"{t:.2f}", class_="num"),
+        tag("td", tag("code", get_str(e, "node"))),
+        tag("td", status, class_="st"),
+        tag("td", get_str(e, "message"), tag("div", _changed(e, before), class_="small mono")),
+        tag("td", shots, class_="shots"),
+        class_=f"e-{slug(status)}",
+    )
 
 
 def _timeline(r: Round, media: Sequence[Media], images: Images) -> Markup:
+    """One row per event, with the images made while it ran beside it; a value is shown where
+    it changed."""
     events = r.timeline
-    shown = events[:MAX_EVENTS]
-    at: dict[int, list[Media]] = {}
-    for m in media:
-        at.setdefault(min(m.event or 0, len(shown)), []).append(m)
-    head = tag("tr", *(tag("th", h) for h in ("#", "t (s)", "node", "status", "message")))
-    rows = [head]
-    for i, e in enumerate(shown):
-        if i in at:
-            rows.append(_shots_row(at[i], images, 5))
-        t = get_float(e, "t")
-        values = "  ".join(f"{k}={v}" for k, v in get_map(e, "values").items())
-        status = get_str(e, "status")
-        rows.append(
-            tag(
-                "tr",
-                tag("td", str(i), class_="num"),
-                tag("td", "" if t is None else f"{t:.2f}", class_="num"),
-                tag("td", tag("code", get_str(e, "node"))),
-                tag("td", status, class_="st"),
-                tag("td", get_str(e, "message"), tag("div", values, class_="small mono")),
-                class_=f"e-{slug(status)}",
-            )
-        )
-    if len(shown) in at:
-        rows.append(_shots_row(at[len(shown)], images, 5))
-    left = len(events) - len(shown)
-    note = tag("p", f"{left} later events are in episode.json.", class_="note") if left else ""
     if not events:
         return tag("p", "No timeline recorded.", class_="note")
+    shown = events[:MAX_EVENTS]
+    at: dict[int, list[Markup]] = {}
+    for m in media:
+        at.setdefault(min(m.event or 0, len(shown)), []).append(_figure(m, images))
+    head = ("#", "t (s)", "node", "status", "message and changed values", "seen")
+    rows = [tag("tr", *(tag("th", h) for h in head))]
+    before: Mapping[str, Any] = {}
+    for i, e in enumerate(shown):
+        rows.append(_event_row(i, e, before, join(at.get(i, ()))))
+        before = get_map(e, "values")
+    if len(shown) in at:
+        end = {"node": "(after the last event)"}
+        rows.append(_event_row(None, end, {}, join(at[len(shown)])))
+    left = len(events) - len(shown)
+    note = tag("p", f"{left} later events are in episode.json.", class_="note") if left else ""
     return join([tag("h3", f"timeline ({len(events)} events)"), tag("table", *rows), note])
 
 
@@ -434,7 +442,9 @@ def _reasoning(r: Round, x: Reasoning) -> Markup:
             sent = e.messages[-1][1]
             reasons = [x[2:] for x in sent.splitlines() if x.startswith("- ")] or [sent]
             for why in reasons:
-                validator.append(tag("li", f"sent back ({e.tag}): ", tag("code", why), class_="sent"))
+                validator.append(
+                    tag("li", f"sent back ({e.tag}): ", tag("code", why), class_="sent")
+                )
     validator += [tag("li", f"rejected: {err}", class_="sent") for err in x.errors]
     validator += [tag("li", note, class_="note") for note in x.notes]
     if not validator:
