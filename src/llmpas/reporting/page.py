@@ -86,6 +86,8 @@ dl.facts dt { color:var(--muted); } dl.facts dd { margin:0; }
 .step.llm { border-left-color:#8e44ad; background:#faf6fc; }
 .arrow { align-self:center; color:var(--muted); font-size:20px; }
 .small { font-size:12.5px; color:var(--muted); }
+.split { display:grid; grid-template-columns:minmax(0,1fr) minmax(0,1.5fr); gap:20px; }
+.split > div:only-child { grid-column:1 / -1; }
 ol.plan { margin:0; padding-left:24px; } ol.plan li { margin:2px 0; }
 .trees { display:flex; gap:12px; overflow-x:auto; }
 .trees figure { margin:0; flex:0 0 auto; max-width:100%; border:1px solid var(--line);
@@ -212,6 +214,8 @@ def _llm_line(run: RunRecord) -> str:
     )
     spec = get_str(run.about, "llm")
     shown = spec or ", ".join(models)
+    if shown == "oracle":
+        return "oracle (reads the simulator's true state: an upper bound, not an LLM)"
     if models and spec and models != [spec]:
         shown += f" (model: {', '.join(models)})"
     return shown or ("none (no LLM in this run)" if not run.loop else "—")
@@ -463,14 +467,15 @@ def _reasoning(r: Round, x: Reasoning) -> Markup:
 
 def _round(run: RunRecord, r: Round, images: Images) -> Markup:
     media = run.media_of(r)
+    top = [tag("div", _plan(r))]
+    if r.anomaly:
+        top.append(tag("div", _anomaly(r.anomaly)))
     parts = [
         tag("h2", f"Round {r.index} ", _status_badge(r.status)),
         tag("div", "goal ", tag("code", r.goal or "—"), class_="small"),
-        _plan(r),
+        tag("div", *top, class_="split"),
         _trees(run, r),
     ]
-    if r.anomaly:
-        parts.append(_anomaly(r.anomaly))
     if r.episode is not None:
         parts.append(_timeline(r, media, images))
     if r.reasoning is not None:
