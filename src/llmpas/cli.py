@@ -237,6 +237,11 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     _add_bench_blocksworld(bsub)
     _add_bench_prompting(bsub)
     _add_bench_all(bsub)
+    from llmpas.experiments import webreport
+
+    wr = bsub.add_parser("report", help="size and build time of the main job's web report")
+    webreport.add_arguments(wr)
+    wr.set_defaults(handler=_one_line_errors(webreport.command))
 
 
 def _add_bench_all(bsub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

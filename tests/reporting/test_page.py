@@ -140,3 +140,12 @@ def test_hostile_file_names_are_escaped_and_encoded(main_job: Path, tmp_path: Pa
     page = render(read_run(folder))
     assert "<img src=x" not in page and "%3Cimg%20src%3Dx%20onerror" in page
     assert HOSTILE not in page
+
+
+def test_the_benchmark_measures_a_given_folder(
+    main_job: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["bench", "report", "--run", str(main_job), "--repeats", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "page size" in out and "build time" in out
+    assert main(["bench", "report", "--repeats", "0"]) == 2
