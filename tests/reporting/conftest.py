@@ -3,11 +3,14 @@ command line, and a household loop whose LLM answers with hostile text."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 from llmpas.reasoning.llm import Request, Response
+from llmpas.reporting import browser
 
 HOSTILE = (
     "<script>alert(1)</script> <img src=x onerror=alert(2)> "
@@ -46,4 +49,28 @@ def hostile_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     assert not result.success and any(r.proposal for r in result.rounds)
     result.save(out / "loop.json")  # (loop.md is another writer's; its surrogates are not ours)
     build_report(out, {"llm": HOSTILE, "world": "household", "method": "flp"})
+    return out
+
+
+@pytest.fixture(scope="session")
+def driver() -> Iterator[Any]:
+    """Headless Chromium: a failure in CI when it is missing, else a skip."""
+    if not browser.available():
+        message = f"{browser.CHROMIUM} / {browser.CHROMEDRIVER} missing (.ci/run installs them)"
+        if browser.in_ci():
+            pytest.fail(message)
+        pytest.skip(message)
+    pytest.importorskip("selenium")
+    with browser.chromium() as d:
+        yield d
+
+
+@pytest.fixture(scope="session")
+def suite_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """``llmpas bench prompting --llm oracle --methods flp --keep-runs`` on one task."""
+    from llmpas.cli import main
+
+    out = tmp_path_factory.mktemp("prompting") / "out"
+    argv = ["bench", "prompting", "--llm", "oracle", "--methods", "flp", "--tasks", "ol02-table1"]
+    assert main([*argv, "--samples", "1", "--keep-runs", "--out", str(out)]) == 0
     return out

@@ -4,7 +4,6 @@ and are skipped elsewhere."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -14,18 +13,6 @@ from llmpas.cli import main
 from llmpas.reporting import browser, build_report, read_run, render
 
 from .conftest import HOSTILE
-
-
-@pytest.fixture(scope="module")
-def driver() -> Iterator[Any]:
-    if not browser.available():
-        message = f"{browser.CHROMIUM} / {browser.CHROMEDRIVER} missing (.ci/run installs them)"
-        if browser.in_ci():
-            pytest.fail(message)
-        pytest.skip(message)
-    pytest.importorskip("selenium")
-    with browser.chromium() as d:
-        yield d
 
 
 def test_the_main_job_page_loads_clean_with_every_image_decoded(

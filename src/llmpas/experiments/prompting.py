@@ -28,14 +28,21 @@ from __future__ import annotations
 import argparse
 import logging
 import statistics
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 from rich.console import Console
 
-from llmpas.experiments.jobs import Job, add_llm_argument, backend, fingerprint, run_jobs
+from llmpas.experiments.jobs import (
+    Job,
+    add_llm_argument,
+    backend,
+    cache_file,
+    fingerprint,
+    run_jobs,
+)
 from llmpas.experiments.suite import (
     HASH_SEEDS,
     SUITE_DIR,
@@ -49,7 +56,7 @@ from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning import PlannerConfig
 from llmpas.reasoning.llm import LLM
 from llmpas.reasoning.methods import DECODINGS, METHODS, MethodConfig
-from llmpas.system import LLMFactory, LoopConfig, oracle_factory
+from llmpas.system import LLMFactory, LoopConfig, LoopResult, oracle_factory
 from llmpas.worlds.household.run import RunConfig
 
 log = logging.getLogger(__name__)
@@ -84,6 +91,7 @@ class PromptingConfig:
     record: Path | None = None
     jobs: int = 1
     out_dir: Path = Path("results/prompting")
+    keep_runs: bool = False  # each run's folder (loop.json, index.html) under out_dir/runs
 
     def __post_init__(self) -> None:
         bad = [m for m in self.methods if m not in METHODS]
@@ -125,6 +133,7 @@ class Payload:
     llm: str  # the backend spec ("oracle" for the oracle row)
     record: str | None
     loop: LoopConfig
+    keep: str | None = None  # the folder this run is kept in
 
 
 # ------------------------------------------------------------------------------- backends
@@ -160,9 +169,29 @@ def run_job(payload: Payload) -> dict[str, Any]:
     """Judge one sample (module level: it may run in another process)."""
     task = load_task(payload.task_file)
     llm = build_llm(payload.llm, payload.record)
-    j = judge(task, llm, payload.loop)
+    j = judge(task, llm, payload.loop, _keeper(payload, task) if payload.keep else None)
     log.info("%s %s #%d: %s", payload.method, task.name, payload.sample, j.verdict.value)
     return {"method": payload.method, "sample": payload.sample, "l_gt": task.l_gt, **j.to_json()}
+
+
+def _keeper(payload: Payload, task: SuiteTask) -> Callable[[LoopResult], object]:
+    """Saves a run's ``loop.json`` and its web report into ``payload.keep``."""
+
+    def keep(result: LoopResult) -> None:
+        from llmpas.reporting import build_report
+
+        folder = Path(str(payload.keep))
+        result.save(folder / "loop.json")
+        about = {"scenario": task.name, "world": "household", "llm": payload.llm}
+        build_report(folder, about | {"method": payload.method, "task": task.scenario.goal})
+
+    return keep
+
+
+def run_folder(config: PromptingConfig, key: str) -> Path:
+    """Where the run of job ``key`` is kept (with ``keep_runs``)."""
+    path = cache_file(config.out_dir / "runs", key)
+    return path.with_name(path.stem)
 
 
 # ---------------------------------------------------------------------------------- summary
@@ -317,7 +346,8 @@ def jobs_for(config: PromptingConfig, tasks: Sequence[SuiteTask]) -> list[Job[Pa
                 prompts = "" if is_oracle else _templates_digest()
                 digest = fingerprint([t.digest, asdict(loop), llm, record, prompts])
                 key = f"{method}/{_safe(llm)}/{t.name}/s{k}/{digest}"
-                out.append(Job(key, Payload(t.source, method, k, llm, record, loop)))
+                keep = str(run_folder(config, key)) if config.keep_runs else None
+                out.append(Job(key, Payload(t.source, method, k, llm, record, loop, keep)))
     return out
 
 
@@ -360,7 +390,10 @@ def write_outputs(
     )
     png = out / "prompting.png"
     plot(cells, config, png)
-    return (md, summary, samples, png)
+    from llmpas.experiments.prompting_page import write_page
+
+    page = write_page(records, cells, config)
+    return (md, summary, samples, png, page)
 
 
 def plot(cells: Sequence[Cell], config: PromptingConfig, path: Path) -> None:
@@ -441,6 +474,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--record", help="record the LLM's answers into this cassette folder")
     p.add_argument("--jobs", type=int, default=1, help="samples run in parallel processes")
     p.add_argument("--out", default="results/prompting", help="folder for tables, plot, cache")
+    p.add_argument(
+        "--keep-runs",
+        action="store_true",
+        help="keep every run (OUT/runs/..., linked from index.html)",
+    )
 
 
 def config_from_args(args: argparse.Namespace) -> PromptingConfig:
@@ -467,6 +505,7 @@ def config_from_args(args: argparse.Namespace) -> PromptingConfig:
         record=Path(args.record) if args.record else None,
         jobs=args.jobs,
         out_dir=Path(args.out),
+        keep_runs=getattr(args, "keep_runs", False),
     )
 
 
