@@ -106,20 +106,17 @@ def to_dot(tree: Tree) -> str:
         '  node [fontname="Helvetica", fontsize=10, margin="0.08,0.03", height=0.3];',
         '  edge [color="#888888", arrowsize=0.5];',
     ]
+    stack: list[tuple[Node, str | None]] = [(tree.root, None)] if tree.root else []
     count = 0
-
-    def walk(node: Node) -> str:
-        nonlocal count
+    while stack:  # depth first, children in order (ordering=out keeps them so)
+        node, parent = stack.pop()
         ident = f"n{count}"
         count += 1
         label = node.label + (f"\n{node.detail}" if node.detail else "")
         lines.append(f"  {ident} [label={_quote(label)}, {_STYLE.get(node.kind, _OTHER)}];")
-        for child in node.children:
-            lines.append(f"  {ident} -> {walk(child)};")
-        return ident
-
-    if tree.root is not None:
-        walk(tree.root)
+        if parent is not None:
+            lines.append(f"  {parent} -> {ident};")
+        stack += [(child, ident) for child in reversed(node.children)]
     lines.append("}")
     return "\n".join(lines) + "\n"
 
