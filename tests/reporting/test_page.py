@@ -28,7 +28,8 @@ def test_the_main_job_writes_a_page_with_every_round_and_the_reasoning(main_job:
         assert f'id="round-{i}"' in page
     assert 'id="reasoning-0"' in page  # the anomaly went to the LLM
     assert "(scanned table2)" in page  # the goals taken
-    assert page.count("data:image/svg+xml;base64,") >= 4  # CSubBT diagrams (graphviz)
+    assert page.count("data:image/svg+xml;base64,") == 4  # CSubBT diagrams (graphviz)
+    assert page.count("drawn above") == 1  # round 2's place is round 0's
     assert "<script" not in page
     # the prompts and answers are on the page (loop.json keeps them for the PyBullet world)
     exchanges = run.rounds[0].reasoning.exchanges if run.rounds[0].reasoning else ()
@@ -70,6 +71,8 @@ def test_images_beyond_the_budget_are_linked_beside_the_page(main_job: Path) -> 
     srcs = re.findall(r'<img src="([^"]+)"', page)
     linked = [s for s in srcs if not s.startswith("data:")]
     assert linked and all((main_job / s).is_file() for s in linked)
+    assert "data:image" not in page  # the diagrams too: shown as text
+    assert page.count('<figure id="tree-') == page.count("<pre>Explore (40 attempts)") + 1
 
 
 def test_a_single_episode_from_execute_gets_the_same_page(tmp_path: Path) -> None:

@@ -133,6 +133,14 @@ class Images:
     budget: int = INLINE_BUDGET
     used: int = 0
     cache: dict[str, str] = field(default_factory=dict)
+    drawn: dict[str, str] = field(default_factory=dict)  # a diagram's source -> its figure id
+
+    def inline(self, data: bytes, mime: str) -> str | None:
+        """``data`` as a data URI, or None when the budget is spent."""
+        if self.used + len(data) > self.budget:
+            return None
+        self.used += len(data)
+        return f"data:{mime};base64,{base64.b64encode(data).decode()}"
 
     def src(self, rel: str) -> str:
         if rel in self.cache:
@@ -141,10 +149,8 @@ class Images:
         mime = _MIME.get(path.suffix.lower())
         out = href(rel)
         try:
-            size = path.stat().st_size
-            if mime and self.used + size <= self.budget:
-                out = f"data:{mime};base64,{base64.b64encode(path.read_bytes()).decode()}"
-                self.used += size
+            if mime and self.used + path.stat().st_size <= self.budget:
+                out = self.inline(path.read_bytes(), mime) or out
         except OSError as e:
             log.warning("%s: %s", path, e)
         self.cache[rel] = out
@@ -321,19 +327,31 @@ def _plan(r: Round) -> Markup:
     return join([tag("h3", f"plan{when}"), tag("ol", *items, class_="plan")])
 
 
-def _trees(run: RunRecord, r: Round) -> Markup:
+def _drawing(tree: diagram.Tree, images: Images) -> Markup:
+    """The tree as an SVG image (Graphviz), or as text without Graphviz or budget."""
+    svg = diagram.to_svg(tree) if images.used < images.budget else None
+    uri = images.inline(svg, "image/svg+xml") if svg is not None else None
+    if uri is None:
+        return tag("pre", diagram.to_text(tree))
+    return void("img", src=uri, alt=f"CSubBT {tree.ident}")
+
+
+def _trees(run: RunRecord, r: Round, images: Images) -> Markup:
+    """The round's CSubBTs; one drawn in an earlier round is linked, not drawn again."""
     files = [x for x in r.xml if Path(x).name != "plan.xml"] or list(r.xml)
     figures = []
     for rel in files:
         for tree in diagram.read_trees(run.folder / rel):
-            svg = diagram.to_svg(tree)
+            anchor = f"tree-{r.index}-{len(figures)}"
             caption = tag("figcaption", tree.ident, " · ", tag("a", "XML", href=href(rel)))
-            if svg is None:
-                body = tag("pre", diagram.to_text(tree))
+            source = diagram.to_dot(tree)
+            if source in images.drawn:
+                link = tag("a", "drawn above", href=f"#{images.drawn[source]}")
+                body = tag("p", "the same subtree as ", link, class_="note")
             else:
-                uri = "data:image/svg+xml;base64," + base64.b64encode(svg).decode()
-                body = void("img", src=uri, alt=f"CSubBT {tree.ident}")
-            figures.append(tag("figure", caption, body))
+                images.drawn[source] = anchor
+                body = _drawing(tree, images)
+            figures.append(tag("figure", caption, body, id=anchor))
     if not figures:
         return tag("p", "No subtree XML in this folder.", class_="note")
     return join([tag("h3", "conditional behaviour subtrees"), tag("div", *figures, class_="trees")])
@@ -474,7 +492,7 @@ def _round(run: RunRecord, r: Round, images: Images) -> Markup:
         tag("h2", f"Round {r.index} ", _status_badge(r.status)),
         tag("div", "goal ", tag("code", r.goal or "—"), class_="small"),
         tag("div", *top, class_="split"),
-        _trees(run, r),
+        _trees(run, r, images),
     ]
     if r.episode is not None:
         parts.append(_timeline(r, media, images))
