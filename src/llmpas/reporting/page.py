@@ -339,7 +339,7 @@ def _drawing(tree: diagram.Tree, images: Images) -> Markup:
 def _trees(run: RunRecord, r: Round, images: Images) -> Markup:
     """The round's CSubBTs; one drawn in an earlier round is linked, not drawn again."""
     files = [x for x in r.xml if Path(x).name != "plan.xml"] or list(r.xml)
-    figures = []
+    figures: list[Markup] = []
     for rel in files:
         for tree in diagram.read_trees(run.folder / rel):
             anchor = f"tree-{r.index}-{len(figures)}"
