@@ -48,7 +48,8 @@ class Tree:
 
 
 def read_trees(path: Path) -> list[Tree]:
-    """The ``<BehaviorTree>`` elements of one file ([] for a file that is not BT.CPP XML)."""
+    """The ``<BehaviorTree>`` elements of one file, in order, without the main tree that only
+    sequences the others ([] for a file that is not BT.CPP XML)."""
     try:
         if path.stat().st_size > MAX_XML_BYTES:
             log.warning("%s: larger than %d bytes, not drawn", path, MAX_XML_BYTES)
@@ -58,7 +59,11 @@ def read_trees(path: Path) -> list[Tree]:
         log.warning("%s: not drawn (%s)", path, e)
         return []
     trees = []
-    for bt in root.iter("BehaviorTree"):
+    every = list(root.iter("BehaviorTree"))
+    main = root.get("main_tree_to_execute")
+    for bt in every:
+        if len(every) > 1 and bt.get("ID") == main:  # the plan's sequence of subtrees
+            continue
         kids = list(bt)
         budget = [MAX_NODES]
         node = _node(kids[0], budget) if kids else None

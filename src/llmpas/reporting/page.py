@@ -338,12 +338,15 @@ def _drawing(tree: diagram.Tree, images: Images) -> Markup:
 
 def _trees(run: RunRecord, r: Round, images: Images) -> Markup:
     """The round's CSubBTs; one drawn in an earlier round is linked, not drawn again."""
-    files = [x for x in r.xml if Path(x).name != "plan.xml"] or list(r.xml)
+    plan = [x for x in r.xml if Path(x).name == "plan.xml"]  # every subtree, in plan order
+    files = plan or list(r.xml)
     figures: list[Markup] = []
     for rel in files:
         for tree in diagram.read_trees(run.folder / rel):
             anchor = f"tree-{r.index}-{len(figures)}"
-            caption = tag("figcaption", tree.ident, " · ", tag("a", "XML", href=href(rel)))
+            own = str(Path(rel).with_name(f"{tree.ident}.xml").as_posix())
+            xml = own if own in r.xml else rel
+            caption = tag("figcaption", tree.ident, " · ", tag("a", "XML", href=href(xml)))
             source = diagram.to_dot(tree)
             if source in images.drawn:
                 link = tag("a", "drawn above", href=f"#{images.drawn[source]}")
