@@ -25,6 +25,7 @@ from llmpas.files import atomic_write
 from llmpas.reporting import diagram
 from llmpas.reporting.html import Markup, href, join, slug, tag, void
 from llmpas.reporting.record import (
+    DEFERS,
     Exchange,
     Media,
     Reasoning,
@@ -323,7 +324,11 @@ def _plan(r: Round) -> Markup:
     if not r.plan:
         return tag("p", "No plan was found.", class_="note")
     when = f" (planned in {r.plan_time:.2f} s)" if r.plan_time is not None else ""
-    items = [tag("li", tag("code", step)) for step in r.plan]
+    items = []
+    for step in r.plan:
+        action, _, deferred = step.partition(DEFERS)
+        later = tag("div", "defers ", deferred, class_="small") if deferred else ""
+        items.append(tag("li", tag("code", action), later))
     return join([tag("h3", f"plan{when}"), tag("ol", *items, class_="plan")])
 
 

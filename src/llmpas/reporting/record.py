@@ -22,6 +22,7 @@ log = logging.getLogger(__name__)
 
 MAX_JSON_BYTES = 50_000_000  # a larger file is refused
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".gif", ".webp")
+DEFERS = "   — defers "  # between a plan step and the streams it leaves to execution
 
 
 class ReportError(Exception):
@@ -247,7 +248,7 @@ def _plan_lines(plan: Any) -> tuple[tuple[str, ...], float | None]:
         args = " ".join(strings(get_list(s, "args")))
         deferred = strings(get_list(s, "deferred"))
         line = f"({get_str(s, 'action')}{' ' + args if args else ''})"
-        lines.append(line + (f"   — defers {'; '.join(deferred)}" if deferred else ""))
+        lines.append(line + (DEFERS + "; ".join(deferred) if deferred else ""))
     return tuple(lines), get_float(get_map(plan, "stats"), "total_time")
 
 
