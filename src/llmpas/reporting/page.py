@@ -246,7 +246,7 @@ def _hero(run: RunRecord, images: Images) -> Markup:
         ("world", get_str(run.about, "world") or "—"),
         ("LLM", _llm_line(run)),
         ("method", _method_line(run)),
-        ("rounds", f"{len(run.rounds)} executed or planned, {calls} LLM calls"),
+        ("rounds", f"{len(run.rounds)} plan-and-execute rounds, {calls} LLM calls"),
     ]
     dl = tag("dl", *(Markup(tag("dt", k) + tag("dd", v)) for k, v in facts), class_="facts")
     left = [
@@ -314,7 +314,8 @@ def _story(run: RunRecord) -> Markup:
                     href=f"#reasoning-{r.index}",
                 ),
             ]
-    return tag("section", tag("h2", "The loop"), tag("div", *items, class_="story"), class_="card")
+    story = tag("div", *items, class_="story")
+    return tag("section", tag("h2", "The loop"), story, class_="card", id="loop")
 
 
 # --------------------------------------------------------------------------------- rounds
