@@ -85,3 +85,16 @@ def test_the_checks_see_what_they_look_for(driver: Any, tmp_path: Path) -> None:
     seen = browser.check(driver, page)
     assert seen.alerted and seen.scripts == 1 and seen.sections == ("s",)
     assert seen.broken and any("boom" in m or "missing.png" in m for m in seen.console)
+
+
+def test_selenium_manager_is_never_asked(driver: Any, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The driver and browser paths are given: nothing is looked up or downloaded."""
+    from selenium.webdriver.common import selenium_manager
+
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise AssertionError("Selenium Manager was asked")
+
+    monkeypatch.setattr(selenium_manager.SeleniumManager, "binary_paths", refuse)
+    with browser.chromium() as fresh:
+        fresh.get("about:blank")
+        assert fresh.capabilities["browserName"] in ("chrome", "chromium")

@@ -49,8 +49,11 @@ def chromium(width: int = 1280, height: int = 900) -> Iterator[Any]:
             f"the report browser needs {CHROMIUM} and {CHROMEDRIVER} "
             "(apt-get install chromium chromium-driver)"
         )
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
+    try:
+        from selenium import webdriver
+        from selenium.webdriver.chrome.service import Service
+    except ImportError:
+        raise BrowserMissing("the report browser needs selenium (pip install selenium)") from None
 
     profile = tempfile.mkdtemp(prefix="llmpas-chromium-")
     options = webdriver.ChromeOptions()

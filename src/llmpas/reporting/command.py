@@ -72,6 +72,10 @@ def command(args: argparse.Namespace, console: Console) -> int:
             shot = browser.screenshot(built.path, args.screenshot, args.width, args.height)
         except browser.BrowserMissing as e:
             raise ValueError(str(e)) from None
+        except Exception as e:  # the browser failed to start or to draw: one line, no traceback
+            first = (str(e).strip().splitlines() or [""])[0]
+            why = f"{type(e).__name__}: {first}"
+            raise ValueError(f"--screenshot: Chromium failed: {why}") from None
         console.print(f"wrote {shot}")
     return 0
 
