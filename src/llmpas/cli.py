@@ -454,7 +454,8 @@ def _cmd_run_pybullet(args: argparse.Namespace, console: Console) -> int:
         if llm is None and not args.no_llm:
             llm = _llm(args.llm, args.record)
         code = pb.run(args, llm, method, echo=lambda s: console.print(s, highlight=False))
-        _web_report(args, console, world="PyBullet: Husky + Franka Panda")
+        task = scenarios()[args.scenario].goal
+        _web_report(args, console, world="PyBullet: Husky + Franka Panda", task=task)
         return code
     except (KeyError, ValueError, LLMError) as e:
         raise CliError(str(e)) from None

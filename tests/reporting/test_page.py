@@ -152,3 +152,14 @@ def test_the_benchmark_measures_a_given_folder(
     out = capsys.readouterr().out
     assert "page size" in out and "build time" in out
     assert main(["bench", "report", "--repeats", "0"]) == 2
+
+
+def test_a_pybullet_run_without_llm_places_its_images_in_its_one_episode(tmp_path: Path) -> None:
+    pytest.importorskip("pybullet")
+    out = tmp_path / "once"
+    assert main(["run", "object-loss", "--no-llm", "--out", str(out)]) == 1
+    run = read_run(out)
+    assert not run.loop and run.success is False and run.task == "(and (On cube bowl))"
+    assert run.rounds[0].status == "anomaly" and run.media
+    assert all(run.round_of(m) is run.rounds[0] for m in run.media)
+    assert 'id="images"' not in _page(out)  # no image left over for a gallery

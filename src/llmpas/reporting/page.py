@@ -322,6 +322,8 @@ def _story(run: RunRecord) -> Markup:
 
 
 def _plan(r: Round) -> Markup:
+    if not r.plan and r.episode is not None:
+        return tag("p", "The plan's steps are not recorded here: see its subtrees.", class_="note")
     if not r.plan:
         return tag("p", "No plan was found.", class_="note")
     when = f" (planned in {r.plan_time:.2f} s)" if r.plan_time is not None else ""
