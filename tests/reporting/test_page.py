@@ -163,3 +163,26 @@ def test_a_pybullet_run_without_llm_places_its_images_in_its_one_episode(tmp_pat
     assert run.rounds[0].status == "anomaly" and run.media
     assert all(run.round_of(m) is run.rounds[0] for m in run.media)
     assert 'id="images"' not in _page(out)  # no image left over for a gallery
+
+
+def test_a_folder_with_many_images_gives_a_bounded_page(tmp_path: Path) -> None:
+    from PIL import Image
+
+    from llmpas.reporting import page as webpage
+
+    (tmp_path / "snapshots").mkdir()
+    media = []
+    for i in range(webpage.MAX_IMAGES + 100):
+        name = f"snapshots/{i:04d}.png"
+        Image.new("RGB", (64, 48), (i % 256, 80, 160)).save(tmp_path / name)
+        media.append(
+            {"file": name, "kind": "snapshot", "label": str(i), "episode": 0, "event": i % 3}
+        )
+    (tmp_path / "media.json").write_text(json.dumps(media))
+    events = [{"t": k / 10, "node": "n", "status": "success"} for k in range(3)]
+    (tmp_path / "episode.json").write_text(json.dumps({"status": "success", "timeline": events}))
+    page = render(read_run(tmp_path), budget=20_000)
+    assert page.count("<figure><a") == webpage.MAX_IMAGES
+    assert "100 more images are only in the folder" in page
+    inlined = page.count('src="data:image/png')
+    assert 0 < inlined < webpage.MAX_IMAGES  # inlined up to the budget, then linked

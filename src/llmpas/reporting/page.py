@@ -43,6 +43,7 @@ log = logging.getLogger(__name__)
 
 INLINE_BUDGET = 3_000_000  # bytes of images inlined per page; later ones are linked
 MAX_EVENTS = 400  # timeline rows per round
+MAX_IMAGES = 500  # snapshots and camera images shown per page
 MAX_TEXT = 20_000  # characters of one prompt or answer shown
 _MIME = {".png": "image/png", ".gif": "image/gif", ".jpg": "image/jpeg", ".jpeg": "image/jpeg"}
 _MIME[".webp"] = "image/webp"
@@ -135,6 +136,7 @@ class Images:
     used: int = 0
     cache: dict[str, str] = field(default_factory=dict)
     drawn: dict[str, str] = field(default_factory=dict)  # a diagram's source -> its figure id
+    figures: int = 0  # images placed (beyond MAX_IMAGES they are only in the folder)
 
     def inline(self, data: bytes, mime: str) -> str | None:
         """``data`` as a data URI, or None when the budget is spent."""
@@ -395,6 +397,9 @@ def _anomaly(a: Mapping[str, Any]) -> Markup:
 
 
 def _figure(m: Media, images: Images) -> Markup:
+    images.figures += 1
+    if images.figures > MAX_IMAGES:
+        return Markup("")
     img = void("img", src=images.src(m.path), alt=m.label or m.path)
     caption = tag("figcaption", f"{m.kind}: {m.label}")
     return tag("figure", tag("a", img, href=href(m.path)), caption)
@@ -532,10 +537,13 @@ def _gallery(run: RunRecord, images: Images) -> Markup:
     )
 
 
-def _files(run: RunRecord) -> Markup:
+def _files(run: RunRecord, images: Images) -> Markup:
     items = [tag("li", tag("a", rel, href=href(rel))) for rel in run.raw]
     log_lines = [tag("li", line) for line in run.world_log]
     parts = [tag("h2", "Raw files"), tag("ul", *items, class_="files")]
+    if images.figures > MAX_IMAGES:
+        left = images.figures - MAX_IMAGES
+        parts.append(tag("p", f"{left} more images are only in the folder.", class_="note"))
     if log_lines:
         parts += [tag("h3", "world log"), tag("ol", *log_lines, class_="small")]
     return tag("section", *parts, class_="card", id="files")
@@ -549,7 +557,7 @@ def render(run: RunRecord, budget: int = INLINE_BUDGET) -> str:
         _story(run) if run.loop else Markup(""),
         *(_round(run, r, images) for r in run.rounds),
         _gallery(run, images),
-        _files(run),
+        _files(run, images),
     ]
     title = f"{run.scenario}: {'task done' if run.success else 'run report'}"
     head = join(
