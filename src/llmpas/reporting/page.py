@@ -122,7 +122,7 @@ details > summary { cursor:pointer; font-weight:600; }
 .role { font-size:12px; color:var(--muted); text-transform:uppercase; margin-top:6px; }
 .answer pre { background:#f7f2fb; border-color:#dcc8ea; }
 ul.files { columns:2; font-size:13.5px; }
-.note { color:var(--muted); font-style:italic; }
+.note { color:var(--muted); font-style:italic; } .nw { white-space:nowrap; }
 @media (max-width:900px) { .hero { grid-template-columns:1fr; } }
 """
 
@@ -168,6 +168,10 @@ def _status_badge(status: str) -> Markup:
 
 def _seconds(x: float | None) -> str:
     return "—" if x is None else f"{x:.2f} s"
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}{'' if n == 1 else 's'}"
 
 
 def _clip(value: str) -> str:
@@ -260,7 +264,8 @@ def _hero(run: RunRecord, images: Images) -> Markup:
     ]
     cmd = get_str(run.about, "command")
     if cmd:
-        left.append(tag("p", "made by ", tag("code", cmd), class_="small"))
+        words = join([tag("span", w, class_="nw") for w in cmd.split()], " ")
+        left.append(tag("p", "made by ", tag("code", words), class_="small"))
     right: list[Markup] = []
     if run.gif:
         right = [
@@ -310,7 +315,7 @@ def _story(run: RunRecord) -> Markup:
                         "div",
                         tag("div", tag("b", f"LLM ({r.reasoning.method})")),
                         tag("div", tag("code", goals), class_="small"),
-                        tag("div", f"{r.reasoning.repairs or 0} repairs", class_="small"),
+                        tag("div", _count(r.reasoning.repairs or 0, "repair"), class_="small"),
                         class_="step llm",
                     ),
                     href=f"#reasoning-{r.index}",
@@ -490,7 +495,7 @@ def _reasoning(r: Round, x: Reasoning) -> Markup:
     parts = [
         tag("h3", f"reasoning ({x.method})", id=f"reasoning-{r.index}"),
         tag("div", "goals taken: ", goals),
-        tag("div", f"validator ({x.repairs or 0} repairs):", class_="small"),
+        tag("div", f"validator ({_count(x.repairs or 0, 'repair')}):", class_="small"),
         tag("ul", *validator, class_="validator"),
     ]
     if x.first_look:
