@@ -265,6 +265,11 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     _add_bench_blocksworld(bsub)
     _add_bench_prompting(bsub)
     _add_bench_all(bsub)
+    from llmpas.experiments import webreport
+
+    wr = bsub.add_parser("report", help="size and build time of the main job's web report")
+    webreport.add_arguments(wr)
+    wr.set_defaults(handler=_one_line_errors(webreport.command))
 
 
 def _add_bench_all(bsub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -338,6 +343,9 @@ def _cmd_execute(args: argparse.Namespace, console: Console) -> int:
     if args.out:
         files = save_episode(ep, Path(args.out), specs=list(run.specs))
         console.print(f"wrote {len(files)} files to {args.out}")
+        steps = [str(s) for s in run.plan.plan.steps]
+        plan_time = run.plan.stats.total_time
+        _web_report(args, console, task=str(run.scenario.goal), plan=steps, plan_time=plan_time)
     if args.json:
         sys.stdout.write(json.dumps(ep.to_json(), indent=2) + "\n")
         return 0 if ep.succeeded else 1
@@ -474,7 +482,10 @@ def _cmd_run_pybullet(args: argparse.Namespace, console: Console) -> int:
         llm = "oracle" if args.llm == "oracle" else None
         if llm is None and not args.no_llm:
             llm = _llm(args.llm, args.record)
-        return pb.run(args, llm, method, echo=lambda s: console.print(s, highlight=False))
+        code = pb.run(args, llm, method, echo=lambda s: console.print(s, highlight=False))
+        task = scenarios()[args.scenario].goal
+        _web_report(args, console, world="PyBullet: Husky + Franka Panda", task=task)
+        return code
     except (KeyError, ValueError, LLMError) as e:
         raise CliError(str(e)) from None
 
@@ -522,9 +533,25 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
 
         files = save_loop(result, Path(args.out))
         console.print(f"wrote {len(files)} files to {args.out} (start with loop.md)")
+        _web_report(args, console, world="household")
     verdict = "[bold green]task done[/]" if result.success else "[bold red]not done[/]"
     console.print(f"{verdict}: {result.message}")
     return 0 if result.success else 1
+
+
+def _web_report(args: argparse.Namespace, console: Console, **about: Any) -> None:
+    """``index.html`` in the ``--out`` folder (llmpas.reporting)."""
+    from llmpas.reporting.command import after_run
+
+    after_run(args, lambda s: console.print(s, highlight=False), **about)
+
+
+def _add_report(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    from llmpas.reporting import command
+
+    p = sub.add_parser("report", help="(re)build a run folder's index.html (web report)")
+    command.add_arguments(p)
+    p.set_defaults(handler=_one_line_errors(command.command))
 
 
 def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -598,6 +625,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_run(sub)
     _add_model(sub)
     _add_bench(sub)
+    _add_report(sub)
     return parser
 
 

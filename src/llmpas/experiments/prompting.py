@@ -29,7 +29,7 @@ import argparse
 import hashlib
 import logging
 import statistics
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -42,6 +42,7 @@ from llmpas.experiments.jobs import (
     add_executor_arguments,
     add_llm_argument,
     backend,
+    cache_file,
     executor_from_args,
     fingerprint,
     llm_resources,
@@ -61,7 +62,7 @@ from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning import PlannerConfig
 from llmpas.reasoning.llm import LLM
 from llmpas.reasoning.methods import DECODINGS, METHODS, MethodConfig
-from llmpas.system import LLMFactory, LoopConfig, oracle_factory
+from llmpas.system import LLMFactory, LoopConfig, LoopResult, oracle_factory
 from llmpas.worlds.household.run import RunConfig
 
 log = logging.getLogger(__name__)
@@ -97,6 +98,7 @@ class PromptingConfig:
     jobs: int = 1
     out_dir: Path = Path("results/prompting")
     executor: ExecutorSpec = field(default_factory=ExecutorSpec)
+    keep_runs: bool = False  # each run's folder (loop.json, index.html) under out_dir/runs
 
     def __post_init__(self) -> None:
         bad = [m for m in self.methods if m not in METHODS]
@@ -140,6 +142,7 @@ class Payload:
     record: str | None
     loop: LoopConfig
     task_data: bytes | None = None  # the task file's content (None: read ``task_file``)
+    keep: str | None = None  # the folder this run is kept in
 
 
 # ------------------------------------------------------------------------------- backends
@@ -178,9 +181,29 @@ def run_job(payload: Payload) -> dict[str, Any]:
     else:
         task = parse_task(payload.task_data, payload.task_file)
     llm = build_llm(payload.llm, payload.record)
-    j = judge(task, llm, payload.loop)
+    j = judge(task, llm, payload.loop, _keeper(payload, task) if payload.keep else None)
     log.info("%s %s #%d: %s", payload.method, task.name, payload.sample, j.verdict.value)
     return {"method": payload.method, "sample": payload.sample, "l_gt": task.l_gt, **j.to_json()}
+
+
+def _keeper(payload: Payload, task: SuiteTask) -> Callable[[LoopResult], object]:
+    """Saves a run's ``loop.json`` and its web report into ``payload.keep``."""
+
+    def keep(result: LoopResult) -> None:
+        from llmpas.reporting import build_report
+
+        folder = Path(str(payload.keep))
+        result.save(folder / "loop.json")
+        about = {"scenario": task.name, "world": "household", "llm": payload.llm}
+        build_report(folder, about | {"method": payload.method, "task": task.scenario.goal})
+
+    return keep
+
+
+def run_folder(config: PromptingConfig, key: str) -> Path:
+    """Where the run of job ``key`` is kept (with ``keep_runs``)."""
+    path = cache_file(config.out_dir / "runs", key)
+    return path.with_name(path.stem)
 
 
 # ---------------------------------------------------------------------------------- summary
@@ -336,7 +359,8 @@ def jobs_for(config: PromptingConfig, tasks: Sequence[SuiteTask]) -> list[Job[Pa
                 prompts = "" if is_oracle else _templates_digest()
                 digest = fingerprint([t.digest, asdict(loop), llm, record, prompts])
                 key = f"{method}/{_safe(llm)}/{t.name}/s{k}/{digest}"
-                payload = Payload(t.source, method, k, llm, record, loop, data[t.source])
+                keep = str(run_folder(config, key)) if config.keep_runs else None
+                payload = Payload(t.source, method, k, llm, record, loop, data[t.source], keep)
                 out.append(Job(key, payload, llm_resources(llm)))
     return out
 
@@ -395,7 +419,10 @@ def write_outputs(
     )
     png = out / "prompting.png"
     plot(cells, config, png)
-    return (md, summary, samples, png)
+    from llmpas.experiments.prompting_page import write_page
+
+    page = write_page(records, cells, config)
+    return (md, summary, samples, png, page)
 
 
 def plot(cells: Sequence[Cell], config: PromptingConfig, path: Path) -> None:
@@ -477,6 +504,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--jobs", type=int, default=1, help="samples run in parallel processes")
     p.add_argument("--out", default="results/prompting", help="folder for tables, plot, cache")
     add_executor_arguments(p)
+    p.add_argument(
+        "--keep-runs",
+        action="store_true",
+        help="keep every run (OUT/runs/..., linked from index.html)",
+    )
 
 
 def config_from_args(args: argparse.Namespace) -> PromptingConfig:
@@ -504,6 +536,7 @@ def config_from_args(args: argparse.Namespace) -> PromptingConfig:
         jobs=args.jobs,
         out_dir=Path(args.out),
         executor=executor_from_args(args),
+        keep_runs=getattr(args, "keep_runs", False),
     )
 
 

@@ -419,11 +419,19 @@ def _answer_reader(task: SuiteTask, config: LoopConfig) -> Callable[[str], GoalP
     return lambda text: parse_goals(text, vocab)
 
 
-def judge(task: SuiteTask, llm: LLM | LLMFactory, config: LoopConfig) -> Judgement:
-    """Run ``task`` through the closed loop with ``llm`` and judge it on the true final state."""
+def judge(
+    task: SuiteTask,
+    llm: LLM | LLMFactory,
+    config: LoopConfig,
+    keep: Callable[[LoopResult], object] | None = None,
+) -> Judgement:
+    """Run ``task`` through the closed loop with ``llm`` and judge it on the true final state
+    (``keep``: called with the loop's record, e.g. to save it)."""
     start = time.perf_counter()
     traced = run_traced(task, llm, config)
     result = traced.result
+    if keep is not None:
+        keep(result)
     holds = holds_in_truth(task.success, traced.world.truth)
     first = first_anomaly(result)
     if first is None:

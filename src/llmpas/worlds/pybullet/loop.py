@@ -284,6 +284,7 @@ def loop_json(result: LoopResult) -> dict[str, Any]:
         }
         if r.proposal is not None:
             item["reasoning"] = {
+                **(r.to_json().get("reasoning") or {}),  # the exchanges (prompts and answers)
                 "method": r.proposal.method,
                 "goals": [str(g) for g in r.proposal.goals],
                 "errors": list(r.proposal.parse.errors),

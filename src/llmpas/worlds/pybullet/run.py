@@ -224,6 +224,7 @@ class Session:
             self.world, self.world, self.belief, np.random.default_rng([self.seed, 2])
         )
         self.rounds = 0
+        self.world.clock = lambda: (self.rounds, len(self.ctx.recorder.events))
 
     def sync_base(self) -> None:
         """Believe the base is where odometry says (after a failed subtree drove around)."""
@@ -306,13 +307,19 @@ def save_run(run: PyBulletRun, world: PyBulletWorld, folder: str | Path) -> list
     written: list[Path] = []
     if run.episode is not None:
         written += save_episode(run.episode, folder, run.specs, f"PyBullet: {run.scenario.name}")
-    shots = folder / "snapshots"
-    for i, frame in enumerate(world.frames):
-        slug = "".join(ch if ch.isalnum() else "-" for ch in frame.label.lower())[:40]
-        written.append(save_png(frame.rgb, shots / f"{i:02d}-{slug}.png"))
-    for i, (label, rgb) in enumerate(world.images):
-        slug = "".join(ch if ch.isalnum() else "-" for ch in label.lower())[:40]
-        written.append(save_png(rgb, folder / "camera" / f"{i:02d}-{slug}.png"))
+    media = []  # where each image was made (episode, timeline event), for the web report
+    shots = (("snapshot", "snapshots", world.frames), ("camera", "camera", world.images))
+    for kind, sub, frames in shots:
+        for i, frame in enumerate(frames):
+            slug = "".join(ch if ch.isalnum() else "-" for ch in frame.label.lower())[:40]
+            path = save_png(frame.rgb, folder / sub / f"{i:02d}-{slug}.png")
+            written.append(path)
+            episode, event = frame.mark
+            media.append(
+                {"file": f"{sub}/{path.name}", "kind": kind, "label": frame.label}
+                | {"episode": episode, "event": event}
+            )
+    written.append(atomic_write(folder / "media.json", json.dumps(media, indent=2)))
     if world.frames:
         written.append(save_gif([f.rgb for f in world.frames], folder / "episode.gif", 500))
     summary: dict[str, Any] = {

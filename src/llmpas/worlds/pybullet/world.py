@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -53,6 +54,7 @@ class Frame:
 
     label: str
     rgb: np.ndarray = field(repr=False)
+    mark: tuple[int, int] = (0, 0)  # (episodes executed before it, timeline events before it)
 
 
 def _se2(b: tuple[float, float, float]) -> np.ndarray:
@@ -80,8 +82,9 @@ class PyBulletWorld:
         self.events = list(events)
         self.counts: dict[str, int] = {}
         self.frames: list[Frame] = []
-        self.images: list[tuple[str, np.ndarray]] = []  # camera views (label, rgb)
+        self.images: list[Frame] = []  # camera views
         self.snapshots = snapshots
+        self.clock: Callable[[], tuple[int, int]] = lambda: (0, 0)  # a Frame's mark
         self.log: list[str] = []
         self.snapshot("start")
 
@@ -111,7 +114,7 @@ class PyBulletWorld:
 
     def snapshot(self, label: str) -> None:
         if self.snapshots:
-            self.frames.append(Frame(label, overview(self.scene).rgb))
+            self.frames.append(Frame(label, overview(self.scene).rgb, self.clock()))
 
     # ------------------------------------------------------------------ events
 
@@ -194,7 +197,7 @@ class PyBulletWorld:
     def wrist_detect(self, obj: str) -> ObjectPose | None:
         """Look with the wrist camera (from a pre-approach) for ``obj``: a fresh pose."""
         img = wrist_image(self.scene, self.camera)
-        self.images.append((f"wrist: {obj}", img.rgb))
+        self.images.append(Frame(f"wrist: {obj}", img.rgb, self.clock()))
         d = detect(self.scene, img, self.rng, self.camera).find(obj)
         return None if d is None else self._believed_pose(d.pose)
 
@@ -253,7 +256,7 @@ class PyBulletWorld:
         if q is None or not self.skills.move_arm(q):
             return self.look(target)
         img = wrist_image(self.scene, self.camera)
-        self.images.append((f"arm look: {target}", img.rgb))
+        self.images.append(Frame(f"arm look: {target}", img.rgb, self.clock()))
         obs = detect(self.scene, img, self.rng, self.camera)
         self.skills.home()
         return self._believed(obs)
@@ -267,7 +270,7 @@ class PyBulletWorld:
 
     def look(self, target: str | None = None) -> Observation:
         img = look_at(self.scene, self.look_point(target), self.camera)
-        self.images.append((f"look: {target}", img.rgb))
+        self.images.append(Frame(f"look: {target}", img.rgb, self.clock()))
         return self._believed(detect(self.scene, img, self.rng, self.camera))
 
 
