@@ -15,6 +15,7 @@ from __future__ import annotations
 import html
 import json
 import math
+import threading
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
@@ -32,7 +33,7 @@ from llmpas.language.problem import parse_formula
 from llmpas.language.semantics import Semantics
 from llmpas.planning import PlanResult
 from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal, Vocabulary
-from llmpas.reasoning.llm import LLM, LLMError
+from llmpas.reasoning.llm import LLM, LLMError, Request, Response
 from llmpas.reasoning.methods import MethodConfig, Proposal, Situation, propose, rejected
 from llmpas.safetext import fenced, printable
 from llmpas.worlds.household.loop_adapter import HouseholdLoopWorld
@@ -296,6 +297,9 @@ class _Loop:
     def expired(self) -> bool:
         return self.deadline is not None and self.clock() - self.start >= self.deadline
 
+    def remaining(self) -> float:
+        return math.inf if self.deadline is None else self.deadline - (self.clock() - self.start)
+
     def stop_at_deadline(self) -> LoopResult:
         spent = self.clock() - self.start
         message = f"deadline: stopped after {spent:.1f} s (deadline {self.deadline:g} s)"
@@ -497,7 +501,11 @@ def close_loop(
     )
     try:
         backend = llm if isinstance(llm, LLM) else llm(lambda: loop.report)
+        if settings.deadline is not None:
+            backend = _ByDeadline(backend, loop.remaining)
         result = loop.run(backend)
+    except _DeadlineReached:
+        result = loop.stop_at_deadline()
     except LLMError as err:
         loop.record(loop.end(False, f"LLM error: {err}", LoopStatus.LLM_ERROR, str(err)))
         raise
@@ -510,6 +518,41 @@ def close_loop(
         raise
     loop.record(result)
     return result
+
+
+class _DeadlineReached(Exception):
+    """The loop's deadline passed while the LLM was answering."""
+
+
+class _ByDeadline:
+    """An LLM whose answers must come before the loop's deadline: each call runs in a daemon
+    thread that is abandoned when the time is up (the backend's own timeout still ends it)."""
+
+    def __init__(self, inner: LLM, remaining: Callable[[], float]) -> None:
+        self.inner = inner
+        self.name = inner.name
+        self.remaining = remaining
+
+    def complete(self, request: Request) -> Response:
+        left = self.remaining()
+        if left <= 0:
+            raise _DeadlineReached
+        out: list[Response | BaseException] = []
+
+        def call() -> None:
+            try:
+                out.append(self.inner.complete(request))
+            except BaseException as err:  # handed over to the loop's thread
+                out.append(err)
+
+        worker = threading.Thread(target=call, name="llm-call", daemon=True)
+        worker.start()
+        worker.join(left if math.isfinite(left) else None)
+        if not out:
+            raise _DeadlineReached
+        if isinstance(out[0], BaseException):
+            raise out[0]
+        return out[0]
 
 
 def run_loop(
