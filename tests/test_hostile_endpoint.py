@@ -124,7 +124,9 @@ def test_hostile_endpoint_through_llmpas_run(case: str, tmp_path: Path) -> None:
     assert record["status"] not in ("running", None)
     md = (out / "loop.md").read_text(encoding="utf-8")
     assert md.startswith("# Closed loop: object-loss-table") and "## Round 0" in md
-    assert "\x1b" not in md and "\x00" not in md
+    for text_file in (p for p in files if p.suffix in (".md", ".html", ".json", ".xml")):
+        text = text_file.read_text(encoding="utf-8")  # strict: no lone surrogates
+        assert "\x1b" not in text and "\x00" not in text and "\x07" not in text, text_file
     assert not list(out.glob(".*.tmp"))  # no half-written file
 
     if case in TRANSPORT_ERRORS:
