@@ -57,6 +57,7 @@ CASES = {
     "injection": Reply(200, completion_body(INJECTION)),
     "key-echoed-in-answer": Reply(200, echo_key_in_answer),
     "lone-surrogates": Reply(200, SURROGATES),
+    "rich-markup": Reply(200, completion_body("(and (on cube [/]) ([/link] x) ([bold]y))")),
     "200kB-answer": Reply(200, completion_body("(and (on cube bowl)) " + "A" * 200_000)),
     "choices-nope": Reply(200, b'{"choices":"nope"}'),
     "not-json": Reply(200, b"<html>502 Bad Gateway</html>"),

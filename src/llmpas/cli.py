@@ -449,7 +449,8 @@ def _cmd_run_pybullet(args: argparse.Namespace, console: Console) -> int:
         llm = "oracle" if args.llm == "oracle" else None
         if llm is None and not args.no_llm:
             llm = _llm(args.llm, args.record)
-        return pb.run(args, llm, method, echo=lambda s: console.print(s, highlight=False))
+        echo = partial(console.print, highlight=False, markup=False)  # LLM text is not markup
+        return pb.run(args, llm, method, echo=echo)
     except (KeyError, ValueError, LLMError) as e:
         raise CliError(str(e)) from None
 
@@ -475,7 +476,7 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
             run=RunConfig(planner=_planner_config(args), seed=args.seed),
         )
         llm = _llm(args.llm, args.record)
-        with console.status(f"running {args.scenario} with {args.llm} ({args.method}) ..."):
+        with console.status(escape(f"running {args.scenario} with {args.llm} ({args.method}) ...")):
             result = run_loop(args.scenario, llm, config, records)
     except (ValueError, ScenarioError, FileNotFoundError, LLMError) as e:
         kept = f" (the rounds so far are in {args.out})" if args.out else ""
@@ -486,17 +487,17 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
     for i, rnd in enumerate(result.rounds):
         ep = rnd.episode
         status = ep.status.value if ep else f"no plan ({rnd.plan.status.value})"
-        console.print(f"round {i}: goal {rnd.goal} -> {status}", highlight=False)
+        console.print(f"round {i}: goal {rnd.goal} -> {status}", highlight=False, markup=False)
         if ep is not None and ep.anomaly is not None:
-            console.print(
-                f"  anomaly: {ep.anomaly.constraint} ({ep.anomaly.reason})", highlight=False
-            )
+            anomaly = f"  anomaly: {ep.anomaly.constraint} ({ep.anomaly.reason})"
+            console.print(anomaly, highlight=False, markup=False)
         if rnd.proposal is not None:
             p = rnd.proposal
             console.print(
                 f"  {p.method}: {' '.join(map(str, p.goals)) or p.parse.status.value}"
                 f" ({p.repairs} repairs, {p.latency:.1f} s)",
                 highlight=False,
+                markup=False,
             )
     if args.out:
         from llmpas.system import save_loop
@@ -504,7 +505,7 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
         files = save_loop(result, Path(args.out))
         console.print(f"wrote {len(files)} files to {args.out} (start with loop.md)")
     verdict = "[bold green]task done[/]" if result.success else "[bold red]not done[/]"
-    console.print(f"{verdict}: {result.message}")
+    console.print(f"{verdict}: {escape(printable(result.message, keep_newlines=False))}")
     return 0 if result.success else 1
 
 
