@@ -100,6 +100,8 @@ def test_hostile_endpoint_through_llmpas_run(case: str, tmp_path: Path) -> None:
                 "45" if case == "slow" else "900",  # the slow server: 30 s timeout per attempt
                 "--out",
                 str(out),
+                "--record",  # the cassettes too: every answer the server gave, written
+                str(out / "cassettes"),
             ],
             cwd=tmp_path,
         )
