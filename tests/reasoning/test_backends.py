@@ -306,6 +306,16 @@ def test_atomic_write_leaves_no_temp_files(tmp_path: Path) -> None:
     assert all(n.endswith(".json") and not n.startswith(".") for n in names)
 
 
+def test_lone_surrogates_are_recorded_and_replayed_intact(tmp_path: Path) -> None:
+    # a repair prompt quotes the previous answer: the request holds surrogates too
+    req = Request((Message("user", "you said \ud800; try again"),), tag="repair-1")
+    answer = "(and \udfff (on cube bowl)) \x1b[2J"
+    ReplayBackend(tmp_path, ScriptedLLM(answer), mode="record").complete(req)
+    [cassette] = tmp_path.iterdir()
+    cassette.read_text(encoding="utf-8")  # valid UTF-8 on disk
+    assert ReplayBackend(tmp_path).complete(req).text == answer
+
+
 def test_key_stability() -> None:
     assert request(tag="a").key() == request(tag="b").key()  # the tag is not in the key
     assert request(temperature=0.0).key() != request(temperature=0.5).key()
