@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
+import time
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -143,3 +145,34 @@ def test_hostile_endpoint_through_llmpas_run(case: str, tmp_path: Path) -> None:
     else:
         assert proc.returncode in (0, 1)
         assert record["status"] in ("done", "not-done")
+
+
+def test_ctrl_c_while_the_llm_answers_keeps_the_rounds_run(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    env = dict(os.environ, OPENAI_API_KEY=SECRET, NO_COLOR="1")
+    with serve(Reply(200, completion_body("(and (scanned table2_right))"), delay=300.0)) as srv:
+        args = ["run", "object-loss-table", "--llm", f"openai:m@{srv.url}", "--out", str(out)]
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "llmpas.cli", *args],
+            cwd=tmp_path,
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            for _ in range(HANG_GUARD * 10):  # until the LLM is asked (a hang guard only)
+                if srv.received or proc.poll() is not None:
+                    break
+                time.sleep(0.1)
+            assert srv.received, "the LLM was never asked"
+            proc.send_signal(signal.SIGINT)
+            stdout, stderr = proc.communicate(timeout=HANG_GUARD)
+        finally:
+            proc.kill()
+    assert proc.returncode != 0
+    assert "Traceback" not in stdout + stderr and "interrupted" in stderr
+    record = json.loads((out / "loop.json").read_text(encoding="utf-8"))
+    assert record["status"] == "interrupted"
+    assert record["rounds"][0]["episode"]["anomaly"] is not None
+    assert "## Round 0" in (out / "loop.md").read_text(encoding="utf-8")
