@@ -7,8 +7,10 @@ import importlib
 import importlib.util
 import json
 import logging
+import math
 import sys
 from collections.abc import Callable, Mapping, Sequence
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +22,7 @@ from rich.table import Table
 from llmpas.language.errors import LanguageError
 from llmpas.language.problem import Problem, read_problem
 from llmpas.planning import PlannerConfig, PlanResult, solve
+from llmpas.safetext import RedactingFilter, env_secrets, printable, redact
 
 Handler = Callable[[argparse.Namespace, Console], int]
 
@@ -482,7 +485,8 @@ def _cmd_run_pybullet(args: argparse.Namespace, console: Console) -> int:
         llm = "oracle" if args.llm == "oracle" else None
         if llm is None and not args.no_llm:
             llm = _llm(args.llm, args.record)
-        code = pb.run(args, llm, method, echo=lambda s: console.print(s, highlight=False))
+        echo = partial(console.print, highlight=False, markup=False)  # LLM text is not markup
+        code = pb.run(args, llm, method, echo=echo)
         task = scenarios()[args.scenario].goal
         _web_report(args, console, world="PyBullet: Husky + Franka Panda", task=task)
         return code
@@ -493,7 +497,7 @@ def _cmd_run_pybullet(args: argparse.Namespace, console: Console) -> int:
 def _cmd_run(args: argparse.Namespace, console: Console) -> int:
     from llmpas.reasoning.llm import LLMError
     from llmpas.reasoning.methods import MethodConfig
-    from llmpas.system import LoopConfig, run_loop
+    from llmpas.system import LoopConfig, run_loop, save_records
     from llmpas.worlds.household.run import RunConfig
     from llmpas.worlds.household.scenario import ScenarioError
 
@@ -501,32 +505,38 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
         return _cmd_run_pybullet(args, console)
     if args.gui or args.no_llm:
         raise CliError("--gui and --no-llm apply to the PyBullet world (--world pybullet)")
+    records = None if not args.out else partial(save_records, folder=Path(args.out))
     try:
         method = MethodConfig(method=args.method, decoding=args.decoding)
         config = LoopConfig(
             method=method,
             max_rounds=args.rounds,
+            deadline=args.deadline,
             run=RunConfig(planner=_planner_config(args), seed=args.seed),
         )
         llm = _llm(args.llm, args.record)
-        with console.status(f"running {args.scenario} with {args.llm} ({args.method}) ..."):
-            result = run_loop(args.scenario, llm, config)
+        with console.status(escape(f"running {args.scenario} with {args.llm} ({args.method}) ...")):
+            result = run_loop(args.scenario, llm, config, records)
     except (ValueError, ScenarioError, FileNotFoundError, LLMError) as e:
-        raise CliError(str(e)) from None
+        kept = f" (the rounds so far are in {args.out})" if args.out else ""
+        raise CliError(f"{e}{kept}") from None
+    except KeyboardInterrupt:
+        kept = f"; the rounds so far are in {args.out}" if args.out else ""
+        raise CliError(f"interrupted{kept}") from None
     for i, rnd in enumerate(result.rounds):
         ep = rnd.episode
         status = ep.status.value if ep else f"no plan ({rnd.plan.status.value})"
-        console.print(f"round {i}: goal {rnd.goal} -> {status}", highlight=False)
+        console.print(f"round {i}: goal {rnd.goal} -> {status}", highlight=False, markup=False)
         if ep is not None and ep.anomaly is not None:
-            console.print(
-                f"  anomaly: {ep.anomaly.constraint} ({ep.anomaly.reason})", highlight=False
-            )
+            anomaly = f"  anomaly: {ep.anomaly.constraint} ({ep.anomaly.reason})"
+            console.print(anomaly, highlight=False, markup=False)
         if rnd.proposal is not None:
             p = rnd.proposal
             console.print(
                 f"  {p.method}: {' '.join(map(str, p.goals)) or p.parse.status.value}"
                 f" ({p.repairs} repairs, {p.latency:.1f} s)",
                 highlight=False,
+                markup=False,
             )
     if args.out:
         from llmpas.system import save_loop
@@ -535,7 +545,7 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
         console.print(f"wrote {len(files)} files to {args.out} (start with loop.md)")
         _web_report(args, console, world="household")
     verdict = "[bold green]task done[/]" if result.success else "[bold red]not done[/]"
-    console.print(f"{verdict}: {result.message}")
+    console.print(f"{verdict}: {escape(printable(result.message, keep_newlines=False))}")
     return 0 if result.success else 1
 
 
@@ -579,10 +589,28 @@ def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     )
     p.add_argument("--decoding", default="grammar", choices=("grammar", "schema", "none"))
     p.add_argument("--rounds", type=int, default=3, help="LLM consultations at most")
+    p.add_argument(
+        "--deadline",
+        type=_seconds,
+        help="seconds for the whole loop: it stops cleanly between steps (status: deadline)",
+    )
     p.add_argument("--record", help="record the LLM's answers into this cassette folder")
-    p.add_argument("--out", help="folder for loop.md, loop.json and each round's report")
+    p.add_argument(
+        "--out", help="folder for loop.md, loop.json (rewritten after every round) and reports"
+    )
     _add_planner_options(p)
     p.set_defaults(handler=_cmd_run, seed=None)
+
+
+def _seconds(text: str) -> float:
+    """An argparse type: a positive, finite number of seconds."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive number of seconds, got {text!r}")
+    return value
 
 
 # --------------------------------------------------------------------------------- model
@@ -633,16 +661,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     console = Console(stderr=False)
     level = logging.WARNING - 10 * min(args.verbose, 2)
-    logging.basicConfig(
-        level=level, format="%(message)s", handlers=[RichHandler(console=Console(stderr=True))]
-    )
+    log_handler = RichHandler(console=Console(stderr=True))
+    log_handler.addFilter(RedactingFilter(env_secrets()))  # no API key in any log line
+    logging.basicConfig(level=level, format="%(message)s", handlers=[log_handler])
     handler: Handler = args.handler
     try:
         return handler(args, console)
     except (CliError, LanguageError) as e:
-        text = escape(str(e))  # brackets (and :x: below) in a message are text, not markup
+        # brackets (and :x:) in a message are text, not markup; secrets and control bytes never
+        line = escape(printable(redact(str(e), env_secrets()), keep_newlines=False))
         Console(stderr=True, emoji=False).print(
-            f"[bold red]error:[/] {text}", highlight=False, soft_wrap=True
+            f"[bold red]error:[/] {line}", highlight=False, soft_wrap=True
         )
         return 2
 

@@ -12,10 +12,14 @@ PyBullet: :mod:`llmpas.worlds.pybullet.loop`) and :func:`close_loop` runs it.
 
 from __future__ import annotations
 
+import html
 import json
+import math
+import threading
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
+from enum import Enum
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -29,8 +33,9 @@ from llmpas.language.problem import parse_formula
 from llmpas.language.semantics import Semantics
 from llmpas.planning import PlanResult
 from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal, Vocabulary
-from llmpas.reasoning.llm import LLM
+from llmpas.reasoning.llm import LLM, LLMError, Request, Response
 from llmpas.reasoning.methods import MethodConfig, Proposal, Situation, propose, rejected
+from llmpas.safetext import fenced, printable
 from llmpas.worlds.household.loop_adapter import HouseholdLoopWorld
 from llmpas.worlds.household.reasoning import Oracle
 from llmpas.worlds.household.run import RunConfig, scenario_path
@@ -44,10 +49,13 @@ class LoopSettings:
 
     method: MethodConfig = field(default_factory=MethodConfig)
     max_rounds: int = 3  # LLM consultations at most
+    deadline: float | None = None  # seconds for the whole loop (checked between its steps)
 
     def __post_init__(self) -> None:
         if self.max_rounds < 0:
             raise ValueError(f"max_rounds must be >= 0, got {self.max_rounds}")
+        if self.deadline is not None and not (math.isfinite(self.deadline) and self.deadline > 0):
+            raise ValueError(f"deadline must be a positive number of seconds, got {self.deadline}")
 
 
 @dataclass(frozen=True)
@@ -97,6 +105,18 @@ class Round:
         return out
 
 
+class LoopStatus(Enum):
+    """How a loop ended (``running``: a record written while it runs)."""
+
+    DONE = "done"
+    NOT_DONE = "not-done"
+    DEADLINE = "deadline"
+    LLM_ERROR = "llm-error"
+    CRASHED = "crashed"
+    INTERRUPTED = "interrupted"
+    RUNNING = "running"
+
+
 @dataclass(frozen=True)
 class LoopResult:
     scenario: str
@@ -105,6 +125,13 @@ class LoopResult:
     message: str = ""
     timings: Mapping[str, float] = field(default_factory=dict)  # seconds, where a world counts
     llm_time: float = 0.0  # seconds spent proposing goals (the LLM and the checks of its answers)
+    status: LoopStatus | None = None  # None: done or not-done, from ``success``
+    error: str = ""  # what stopped the loop when it did not end by itself
+
+    def __post_init__(self) -> None:
+        if self.status is None:
+            done = LoopStatus.DONE if self.success else LoopStatus.NOT_DONE
+            object.__setattr__(self, "status", done)
 
     @property
     def llm_calls(self) -> int:
@@ -115,6 +142,8 @@ class LoopResult:
             "scenario": self.scenario,
             "success": self.success,
             "message": self.message,
+            "status": self.status.value if self.status else None,
+            "error": self.error or None,
             "rounds": [r.to_json() for r in self.rounds],
         }
 
@@ -167,6 +196,7 @@ class LoopWorld(Protocol):
 
 
 LLMFor = Callable[[Callable[[], AnomalyReport | None]], LLM]  # an LLM built on the anomaly
+OnRound = Callable[["LoopResult"], object]  # gets the record so far after every step
 LLMFactory = Callable[[HouseholdWorld, Callable[[], AnomalyReport | None]], LLM]
 
 
@@ -186,17 +216,24 @@ class _Loop:
     searched: dict[str, set[str]] = field(default_factory=dict)
     plans: dict[tuple[str, int], tuple[PlanResult, Any]] = field(default_factory=dict)
     llm_time: float = 0.0
+    deadline: float | None = None
+    on_round: OnRound | None = None
+    clock: Callable[[], float] = time.monotonic
 
     def __post_init__(self) -> None:
         self.sem = Semantics(self.world.domain, {}, {}, strict_costs=False)
+        self.start = self.clock()
 
     def run(self, backend: LLM) -> LoopResult:
         task = self.world.task
         goal: Formula | str = task
         text = task
         for _ in range(2 * self.max_rounds + 1):  # the task, then per LLM round: goals + task
+            if self.expired():
+                return self.stop_at_deadline()
             rnd = self.attempt(goal, text)
             self.rounds.append(rnd)
+            self.record()
             ep = rnd.episode
             asked = len([r for r in self.rounds if r.proposal])
             if ep is not None and ep.succeeded:
@@ -216,6 +253,8 @@ class _Loop:
                     return self.end(False, ep.message or "out of LLM rounds")
                 report = self.report = ep.anomaly
                 self.remember(report)
+            if self.expired():
+                return self.stop_at_deadline()
             sit = self.world.situation(report, self.history())
             t = time.perf_counter()
             proposal = propose(
@@ -223,6 +262,7 @@ class _Loop:
             )
             self.llm_time += time.perf_counter() - t
             self.rounds[-1] = replace(rnd, proposal=proposal)
+            self.record()
             if not proposal.ok:
                 errors = "; ".join(proposal.parse.errors)
                 return self.end(False, "the LLM gave no usable goals: " + errors)
@@ -230,9 +270,40 @@ class _Loop:
             goal, text = self.next_goal(proposal)
         return self.end(False, f"not done after {self.max_rounds} LLM rounds")
 
-    def end(self, success: bool, message: str) -> LoopResult:
+    def end(
+        self,
+        success: bool,
+        message: str,
+        status: LoopStatus | None = None,
+        error: str = "",
+    ) -> LoopResult:
         rounds = tuple(self.rounds)
-        return LoopResult(self.world.name, success, rounds, message, llm_time=self.llm_time)
+        return LoopResult(
+            self.world.name,
+            success,
+            rounds,
+            message,
+            llm_time=self.llm_time,
+            status=status,
+            error=error,
+        )
+
+    def record(self, result: LoopResult | None = None) -> None:
+        """Hand the record so far (or the final one) to ``on_round`` (which saves it)."""
+        if self.on_round is not None:
+            running = f"running: {len(self.rounds)} rounds so far"
+            self.on_round(result or self.end(False, running, LoopStatus.RUNNING))
+
+    def expired(self) -> bool:
+        return self.deadline is not None and self.clock() - self.start >= self.deadline
+
+    def remaining(self) -> float:
+        return math.inf if self.deadline is None else self.deadline - (self.clock() - self.start)
+
+    def stop_at_deadline(self) -> LoopResult:
+        spent = self.clock() - self.start
+        message = f"deadline: stopped after {spent:.1f} s (deadline {self.deadline:g} s)"
+        return self.end(False, message, LoopStatus.DEADLINE, message)
 
     def plan(self, goal: Formula | str) -> tuple[PlanResult, Any]:
         """Plan from the current belief (memoised per round: a goal tried for feasibility is
@@ -406,29 +477,101 @@ class _Loop:
         return "\n".join(lines)
 
 
-def close_loop(world: LoopWorld, llm: LLM | LLMFor, settings: LoopSettings) -> LoopResult:
+def close_loop(
+    world: LoopWorld,
+    llm: LLM | LLMFor,
+    settings: LoopSettings,
+    on_round: OnRound | None = None,
+    clock: Callable[[], float] = time.monotonic,
+) -> LoopResult:
     """Run the closed loop on ``world``. ``llm`` is a backend, or a function of the current
-    anomaly that builds one (the oracle)."""
-    loop = _Loop(world, settings.method, settings.max_rounds)
-    backend = llm if isinstance(llm, LLM) else llm(lambda: loop.report)
-    return loop.run(backend)
+    anomaly that builds one (the oracle).
+
+    ``on_round`` gets the record after every plan-and-execute step and every LLM answer
+    (status ``running``), and the final one; when an LLM error, a crash or an interrupt ends
+    the loop it gets the rounds run so far with the error recorded, and the exception goes on.
+    ``settings.deadline`` (seconds on ``clock``) stops the loop cleanly between steps."""
+    loop = _Loop(
+        world,
+        settings.method,
+        settings.max_rounds,
+        deadline=settings.deadline,
+        on_round=on_round,
+        clock=clock,
+    )
+    try:
+        backend = llm if isinstance(llm, LLM) else llm(lambda: loop.report)
+        if settings.deadline is not None:
+            backend = _ByDeadline(backend, loop.remaining)
+        result = loop.run(backend)
+    except _DeadlineReached:
+        result = loop.stop_at_deadline()
+    except LLMError as err:
+        loop.record(loop.end(False, f"LLM error: {err}", LoopStatus.LLM_ERROR, str(err)))
+        raise
+    except KeyboardInterrupt:
+        loop.record(loop.end(False, "interrupted", LoopStatus.INTERRUPTED, "KeyboardInterrupt"))
+        raise
+    except Exception as err:
+        error = f"{type(err).__name__}: {err}"
+        loop.record(loop.end(False, f"crashed: {error}", LoopStatus.CRASHED, error))
+        raise
+    loop.record(result)
+    return result
+
+
+class _DeadlineReached(Exception):
+    """The loop's deadline passed while the LLM was answering."""
+
+
+class _ByDeadline:
+    """An LLM whose answers must come before the loop's deadline: each call runs in a daemon
+    thread that is abandoned when the time is up (the backend's own timeout still ends it)."""
+
+    def __init__(self, inner: LLM, remaining: Callable[[], float]) -> None:
+        self.inner = inner
+        self.name = inner.name
+        self.remaining = remaining
+
+    def complete(self, request: Request) -> Response:
+        left = self.remaining()
+        if left <= 0:
+            raise _DeadlineReached
+        out: list[Response | BaseException] = []
+
+        def call() -> None:
+            try:
+                out.append(self.inner.complete(request))
+            except BaseException as err:  # handed over to the loop's thread
+                out.append(err)
+
+        worker = threading.Thread(target=call, name="llm-call", daemon=True)
+        worker.start()
+        worker.join(left if math.isfinite(left) else None)
+        if not out:
+            raise _DeadlineReached
+        if isinstance(out[0], BaseException):
+            raise out[0]
+        return out[0]
 
 
 def run_loop(
     scenario: Scenario | str | Path,
     llm: LLM | LLMFactory,
     config: LoopConfig | None = None,
+    on_round: OnRound | None = None,
 ) -> LoopResult:
     """Run a household scenario with LLM recovery. ``llm`` is a backend, or a factory that gets
-    the world and the current anomaly (how the oracle is built)."""
+    the world and the current anomaly (how the oracle is built); ``on_round``: see
+    :func:`close_loop`."""
     config = config or LoopConfig()
     if not isinstance(scenario, Scenario):
         scenario = load_scenario(scenario_path(str(scenario)))
     world = HouseholdLoopWorld.open(scenario, config.run)
     if isinstance(llm, LLM):
-        return close_loop(world, llm, config)
+        return close_loop(world, llm, config, on_round)
     factory = llm
-    return close_loop(world, lambda report: factory(world.sim, report), config)
+    return close_loop(world, lambda report: factory(world.sim, report), config, on_round)
 
 
 __all__ = [
@@ -437,6 +580,7 @@ __all__ = [
     "LoopConfig",
     "LoopResult",
     "LoopSettings",
+    "LoopStatus",
     "LoopWorld",
     "Round",
     "close_loop",
@@ -444,6 +588,7 @@ __all__ = [
     "oracle_factory",
     "run_loop",
     "save_loop",
+    "save_records",
 ]
 
 
@@ -451,7 +596,10 @@ def loop_markdown(result: LoopResult) -> str:
     """The closed loop as a readable report: each round's goal and outcome, and for each
     anomaly the prompts sent, the answers, the goals taken and the repairs."""
     verdict = "task done" if result.success else "not done"
-    lines = [f"# Closed loop: {result.scenario}", "", f"**{verdict}**: {result.message}", ""]
+    if result.status not in (LoopStatus.DONE, LoopStatus.NOT_DONE, None):
+        verdict += f" ({result.status.value})"
+    title = f"# Closed loop: {_md(result.scenario)}"
+    lines = [title, "", f"**{verdict}**: {_md(result.message)}", ""]
     for i, rnd in enumerate(result.rounds):
         ep = rnd.episode
         status = ep.status.value if ep else f"no plan ({rnd.plan.status.value})"
@@ -463,10 +611,16 @@ def loop_markdown(result: LoopResult) -> str:
             ]
             lines += [f"{k}. `{s}`" for k, s in enumerate(rnd.plan.plan.steps, 1)] + [""]
         if ep is not None and ep.anomaly is not None:
-            lines += ["Anomaly:", "", f"> {ep.anomaly.describe()}", ""]
+            lines += ["Anomaly:", "", f"> {_md(ep.anomaly.describe())}", ""]
         if rnd.proposal is not None:
             lines += _proposal_lines(rnd.proposal)
-    return "\n".join(lines) + "\n"
+    return printable("\n".join(lines) + "\n")
+
+
+def _md(text: str) -> str:
+    """Text from outside (an answer, a file name) on a Markdown line: one printable line, with
+    no raw HTML."""
+    return html.escape(printable(text, keep_newlines=False), quote=False)
 
 
 def _proposal_lines(p: Proposal) -> list[str]:
@@ -477,21 +631,17 @@ def _proposal_lines(p: Proposal) -> list[str]:
         f"{p.repairs} repairs, {p.tokens} tokens, {p.latency:.1f} s",
         "",
     ]
-    notes = [f"- {e}" for e in (*p.parse.errors, *p.parse.notes)]
+    notes = [f"- {_md(e)}" for e in (*p.parse.errors, *p.parse.notes)]
     lines += [*notes, ""] if notes else []
     for e in p.exchanges:
         lines += [
-            f"#### {e.tag}: prompt",
+            f"#### {_md(e.tag)}: prompt",
             "",
-            "```text",
-            e.request.messages[-1].content.strip(),
-            "```",
+            *fenced(e.request.messages[-1].content.strip()),
             "",
-            f"#### {e.tag}: answer ({e.response.model})",
+            f"#### {_md(e.tag)}: answer ({_md(e.response.model)})",
             "",
-            "```text",
-            e.response.text.strip(),
-            "```",
+            *fenced(e.response.text.strip()),
             "",
         ]
     return lines
@@ -502,9 +652,14 @@ def save_loop(result: LoopResult, folder: str | Path) -> list[Path]:
     from llmpas.execution.report import save_episode
 
     out = Path(folder)
-    out.mkdir(parents=True, exist_ok=True)
-    files = [result.save(out / "loop.json"), atomic_write(out / "loop.md", loop_markdown(result))]
+    files = save_records(result, out)
     for i, rnd in enumerate(result.rounds):
         if rnd.episode is not None:
             files += save_episode(rnd.episode, out / f"round{i}", title=f"Round {i}: {rnd.goal}")
     return files
+
+
+def save_records(result: LoopResult, folder: str | Path) -> list[Path]:
+    """``loop.json`` and ``loop.md`` (atomically): what the loop calls after every round."""
+    out = Path(folder)
+    return [result.save(out / "loop.json"), atomic_write(out / "loop.md", loop_markdown(result))]

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import pytest
@@ -135,18 +134,19 @@ def test_relaxed_reachable_but_unsolvable_goal_is_proved_by_search(planner: Fast
     assert plan.search_time > 0
 
 
-def test_timeout_returns_promptly(planner: FastDownward) -> None:
-    started = time.monotonic()
+def test_timeout_is_the_wall_clock_kill(planner: FastDownward) -> None:
     plan = planner.solve(PIGEON_DOMAIN, pigeon_problem(12), max_time=0.3)
-    elapsed = time.monotonic() - started
     assert plan.status is ClassicalStatus.TIMEOUT
     assert "exceeded" in plan.message
-    assert elapsed < 0.9  # the wall-clock kill, not the 1 s CPU rlimit, ended it
+    # the wall-clock kill ended it (CPU time never exceeds wall time, so the 1 s CPU rlimit
+    # cannot come first): behaviour, not a measured duration
+    assert "killed" in plan.message
 
 
 def test_memory_limit_is_reported() -> None:
-    # Blind A* stores states fast (~50 MB/s here): a 30 MB address-space limit ends it in < 1 s.
-    config = DownwardConfig(search="astar(blind())", memory_mb=30, max_time=5.0)
+    # Blind A* stores states fast: the 30 MB address-space limit ends it long before the time
+    # limit, which is generous so that a loaded machine still reaches the memory limit first.
+    config = DownwardConfig(search="astar(blind())", memory_mb=30, max_time=120.0)
     plan = FastDownward(config).solve(PIGEON_DOMAIN, pigeon_problem(12))
     assert plan.status is ClassicalStatus.OUT_OF_MEMORY
     assert "memory limit 30 MB" in plan.message

@@ -147,12 +147,10 @@ def test_slow_streams_end_in_timeout() -> None:
         time.sleep(0.2)
         return (p + 0.5,)
 
-    start = time.perf_counter()
     result = solve(
         make_problem(WIDE, reach=slow, deferred_reach=False), PlannerConfig(max_time=0.5)
     )
     assert result.status is PlanStatus.TIMEOUT
-    assert time.perf_counter() - start < 5
 
 
 class ScriptedPlanner:

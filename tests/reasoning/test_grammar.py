@@ -3,7 +3,6 @@ parse_goals on everything they admit."""
 
 from __future__ import annotations
 
-import importlib.util
 import itertools
 import json
 import random
@@ -16,6 +15,8 @@ from llmpas.language.logic import Atom, Not
 from llmpas.reasoning.goals import GoalStatus, Literal, Vocabulary, parse_goals
 from llmpas.reasoning.grammar import gbnf, json_schema
 
+from ..tiny_model import needs_tiny_model, tiny_backend
+from ..tiny_model import sample as tiny_sample
 from .hostile_outputs import HOUSEHOLD
 
 TINY = Vocabulary.of(
@@ -308,24 +309,53 @@ def test_reasoning_length_must_be_a_non_negative_integer(bad: Any) -> None:
         gbnf(TINY, reasoning=bad)
 
 
-@pytest.mark.skipif(importlib.util.find_spec("llama_cpp") is None, reason="llama_cpp not installed")
-@pytest.mark.parametrize("reasoning", [0, 200])
-def test_llama_cpp_accepts_the_grammar(reasoning: int) -> None:  # pragma: no cover - optional
-    import llama_cpp
+# --- llama.cpp decoding under the grammars (the tiny real model) -------------------------------
 
-    assert llama_cpp.LlamaGrammar.from_string(gbnf(HOUSEHOLD, reasoning=reasoning)) is not None
-    excluded = gbnf(HOUSEHOLD, reasoning=reasoning, exclude=all_literals(HOUSEHOLD)[:7])
-    assert llama_cpp.LlamaGrammar.from_string(excluded) is not None
+PROMPTS = (
+    "The cube fell off the table and is lost. Which goals should the robot pursue?",
+    "The microwave door is blocked by a mug. Propose goals.",
+)
 
 
-@pytest.mark.skipif(importlib.util.find_spec("llama_cpp") is None, reason="llama_cpp not installed")
-def test_llama_cpp_accepts_the_skill_grammar() -> None:  # pragma: no cover - optional
-    import llama_cpp
+@needs_tiny_model
+@pytest.mark.parametrize("reasoning", [0, 60])
+def test_llama_cpp_decodes_only_what_the_goal_grammar_admits(reasoning: int) -> None:
+    """llama.cpp parses the grammar and samples under it: every answer is in the grammar's
+    language (read by this file's own GBNF reader), parses into goals from the vocabulary, and
+    never holds an excluded literal. Structure only: the text itself is the model's."""
+    excluded = all_literals(HOUSEHOLD)[:40]
+    grammar = gbnf(HOUSEHOLD, reasoning=reasoning, exclude=excluded)
+    goal_rules = "\n".join(x for x in grammar.splitlines() if not x.startswith(("root", "reason")))
+    lits = language(read_grammar(goal_rules), ("ref", "lit"))
+    llm = tiny_backend()
+    for prompt in PROMPTS:
+        text = tiny_sample(llm, grammar, prompt, max_tokens=96 + reasoning)
+        if reasoning:
+            head, sep, text = text.partition("\nGoals: ")
+            assert sep and head.startswith("Reasoning: ") and "\n" not in head
+            assert 1 <= len(head) - len("Reasoning: ") <= reasoning
+        parse = parse_goals(text, HOUSEHOLD)
+        assert parse.ok, (text, parse.errors)
+        assert text == "(and " + " ".join(map(str, parse.goals)) + ")"
+        assert all(str(g) in lits for g in parse.goals)
+        assert not set(parse.goals) & set(excluded)
 
+
+@needs_tiny_model
+def test_llama_cpp_decodes_only_skill_calls_the_skill_grammar_admits() -> None:
     from llmpas.reasoning.grammar import skill_gbnf
+    from llmpas.reasoning.program import parse_program
     from llmpas.worlds.household.reasoning import PROGRAM_CALLS
 
-    assert llama_cpp.LlamaGrammar.from_string(skill_gbnf(PROGRAM_CALLS, HOUSEHOLD)) is not None
+    grammar = skill_gbnf(PROGRAM_CALLS, HOUSEHOLD, reasoning=60)
+    calls = language(read_grammar(grammar.split("\n", 2)[2]), ("ref", "call"))
+    llm = tiny_backend()
+    for prompt in PROMPTS:
+        text = tiny_sample(llm, grammar, prompt, max_tokens=96)
+        thought, sep, call = text.partition("\nRobot action: ")
+        assert sep and thought.startswith("Robot thought: ")
+        assert call in calls
+        assert len(parse_program(call, PROGRAM_CALLS, HOUSEHOLD).goals) == 1
 
 
 # --- json_schema ------------------------------------------------------------------------------

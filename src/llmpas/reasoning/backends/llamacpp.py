@@ -77,11 +77,24 @@ class LlamaCppBackend:
             "seed": self.seed if request.seed is None else request.seed,
         }
         if request.grammar is not None:
+            self._check_grammar(request.grammar)
             kwargs["grammar"] = _grammar(request.grammar)
         elif request.json_schema is not None:
             schema = dict(request.json_schema)
             kwargs["response_format"] = {"type": "json_object", "schema": schema}
         return kwargs
+
+    def _check_grammar(self, text: str) -> None:
+        """Parse ``text`` with llama.cpp's own GBNF parser first: ``LlamaGrammar.from_string``
+        only stores the string, and a grammar llama.cpp cannot parse gives a NULL sampler that
+        crashes the process (segmentation fault) at the first sampled token."""
+        llama_cpp = _import_llama_cpp()
+        vocab = llama_cpp.llama_model_get_vocab(self._llama.model)
+        sampler = llama_cpp.llama_sampler_init_grammar(vocab, text.encode("utf-8"), b"root")
+        if not sampler:
+            shown = " ".join(text.split())[:80]
+            raise LLMError(f"{self.name}: invalid GBNF grammar (llama.cpp cannot parse {shown!r})")
+        llama_cpp.llama_sampler_free(sampler)
 
 
 def _import_llama_cpp() -> Any:

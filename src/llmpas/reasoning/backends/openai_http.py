@@ -1,34 +1,86 @@
-"""An OpenAI-compatible chat-completions backend with bounded retries."""
+"""An OpenAI-compatible chat-completions backend that treats the server as untrusted.
+
+The request goes out with ``http.client`` (standard library) rather than the ``openai`` SDK, so
+that every limit is ours: one deadline per attempt (connecting, sending, headers and body
+included, enforced by a watchdog that shuts the socket), a bound on the answer's size, and a
+strict check of the answer's shape. Whatever the server does (non-JSON, invalid UTF-8,
+``{"choices": "nope"}``, 500s, a 401 echoing the ``Authorization`` header, a body that never
+ends), :meth:`OpenAIBackend.complete` returns a :class:`Response` or raises an
+:class:`LLMServerError` with one line naming the server (``host:port`` and the model); the API
+key is redacted from every text that leaves this module (answers and error bodies included).
+"""
 
 from __future__ import annotations
 
+import contextlib
+import http.client
+import json
 import logging
 import os
+import socket
+import ssl
+import threading
 import time
-from collections.abc import Callable
+import urllib.parse
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import Any
 
-from llmpas.reasoning.llm import LLMError, Request, Response
+from llmpas.reasoning.llm import Fault, LLMError, LLMServerError, Request, Response
+from llmpas.safetext import one_line, redact
 
 log = logging.getLogger(__name__)
 
 LOCAL_DUMMY_KEY = "sk-local-no-key"  # local servers (llama.cpp, vLLM) accept any key
+DEFAULT_BASE_URL = "https://api.openai.com/v1"
+MAX_BYTES = 1 << 20  # an answer of max_tokens tokens is a few kB; 1 MiB is far beyond
+CHUNK = 1 << 16
+RETRYABLE = (Fault.TIMEOUT, Fault.CONNECTION)
 
 
-class _Retryable(Exception):
-    """A failed attempt worth retrying; ``reason`` is the one-line message for the final error."""
+@dataclass(frozen=True)
+class Endpoint:
+    """Where the server is: ``scheme://host:port/path`` (user info and query never kept)."""
 
-    def __init__(self, reason: str) -> None:
-        super().__init__(reason)
-        self.reason = reason
+    scheme: str
+    host: str
+    port: int
+    path: str
+
+    def __post_init__(self) -> None:
+        if self.scheme not in ("http", "https"):
+            raise ValueError(f"LLM server URL must be http:// or https://, got {self.scheme!r}")
+        if not self.host:
+            raise ValueError("LLM server URL has no host")
+
+    @classmethod
+    def parse(cls, url: str) -> Endpoint:
+        parts = urllib.parse.urlsplit(url.strip())
+        try:
+            port = parts.port
+        except ValueError:
+            raise ValueError(f"LLM server URL has a bad port: {redact(url)!r}") from None
+        scheme = parts.scheme.lower()
+        default = 443 if scheme == "https" else 80
+        return cls(scheme, parts.hostname or "", port or default, parts.path.rstrip("/"))
+
+    @property
+    def hostport(self) -> str:
+        host = f"[{self.host}]" if ":" in self.host else self.host
+        return f"{host}:{self.port}"
+
+    @property
+    def url(self) -> str:
+        return f"{self.scheme}://{self.hostport}{self.path}"
 
 
 class OpenAIBackend:
-    """Chat completions over HTTP with the ``openai`` SDK.
+    """Chat completions over HTTP from any OpenAI-compatible server.
 
-    The SDK's own retries are disabled: timeouts, HTTP 5xx/429 and connection errors are retried
-    here ``max_retries`` times with exponential backoff (``backoff``, ``2*backoff``, ...), then
-    reported as a one-line :class:`LLMError`. The API key is never logged.
+    ``timeout`` bounds each attempt as a whole; timeouts, connection errors, HTTP 5xx and 429
+    are retried ``max_retries`` times with exponential backoff (``backoff``, ``2*backoff``,
+    ...). ``max_bytes`` bounds the answer's size. The API key is sent in the ``Authorization``
+    header and redacted from everything else.
     """
 
     def __init__(
@@ -40,58 +92,123 @@ class OpenAIBackend:
         max_retries: int = 2,
         backoff: float = 0.5,
         *,
+        max_bytes: int = MAX_BYTES,
         sleep: Callable[[float], None] = time.sleep,
     ) -> None:
-        if timeout <= 0:
+        if not timeout > 0:
             raise ValueError(f"timeout must be > 0, got {timeout}")
         if max_retries < 0:
             raise ValueError(f"max_retries must be >= 0, got {max_retries}")
+        if max_bytes < 1:
+            raise ValueError(f"max_bytes must be >= 1, got {max_bytes}")
+        url = base_url or os.environ.get("OPENAI_BASE_URL") or None
         self.model = model
         self.name = f"openai:{model}"
         self.timeout = timeout
         self.max_retries = max_retries
         self.backoff = backoff
+        self.max_bytes = max_bytes
         self._sleep = sleep
-        self._client = _make_client(base_url, _resolve_key(api_key, base_url), timeout)
-        self.base_url = str(self._client.base_url).rstrip("/")
+        self._key = _resolve_key(api_key, url)
+        self.endpoint = Endpoint.parse(url or DEFAULT_BASE_URL)
+        self.base_url = self.endpoint.url
+        self.server = f"{self.name} at {self.endpoint.hostport}"
 
     def __repr__(self) -> str:  # no key in here, ever
         return f"OpenAIBackend(model={self.model!r}, base_url={self.base_url!r})"
+
+    def redact(self, text: str) -> str:
+        return redact(text, (self._key,))
 
     def complete(self, request: Request) -> Response:
         attempts = self.max_retries + 1
         for attempt in range(1, attempts + 1):
             try:
                 return self._attempt(request)
-            except _Retryable as err:
+            except LLMServerError as err:
+                retry = err.fault in RETRYABLE or (err.status or 0) >= 500 or err.status == 429
+                if not retry:
+                    raise
                 log.warning(
-                    "%s: attempt %d/%d failed: %s", self.name, attempt, attempts, err.reason
+                    "%s: attempt %d/%d failed: %s", self.server, attempt, attempts, err.reason
                 )
                 if attempt == attempts:
-                    raise LLMError(f"{self.name}: {err.reason} ({attempts} attempts)") from None
+                    reason = f"{err.reason} ({attempts} attempt{'s' if attempts > 1 else ''})"
+                    raise LLMServerError(self.server, err.fault, reason, err.status) from None
                 self._sleep(self.backoff * 2 ** (attempt - 1))
         raise AssertionError("unreachable")  # pragma: no cover
 
-    def _attempt(self, request: Request) -> Response:
-        import openai
+    def _fail(self, fault: Fault, reason: str, status: int | None = None) -> LLMServerError:
+        return LLMServerError(self.server, fault, one_line(self.redact(reason)), status)
 
+    def _attempt(self, request: Request) -> Response:
+        body = json.dumps(self.create_kwargs(request)).encode("utf-8", "surrogatepass")
         start = time.perf_counter()
-        try:
-            completion = self._client.chat.completions.create(**self.create_kwargs(request))
-        except openai.APITimeoutError:
-            raise _Retryable(f"timed out after {self.timeout:g} s at {self.base_url}") from None
-        except openai.APIConnectionError:
-            raise _Retryable(f"cannot connect to {self.base_url}") from None
-        except openai.APIStatusError as err:
-            reason = f"HTTP {err.status_code} from {self.base_url}"
-            if err.status_code >= 500 or err.status_code == 429:
-                raise _Retryable(reason) from None
-            raise LLMError(f"{self.name}: {reason}: {_one_line(err.message)}") from None
+        status, data = self._post(body)
         latency = time.perf_counter() - start
-        return _to_response(completion, self.model, latency)
+        if not 200 <= status < 300:
+            raise self._fail(Fault.HTTP, f"HTTP {status}{_error_detail(data)}", status)
+        return self._response(data, latency)
+
+    def _post(self, body: bytes) -> tuple[int, bytes]:
+        """POST ``body`` to ``/chat/completions``: (status, at most ``max_bytes`` of body)."""
+        ep = self.endpoint
+        conn: http.client.HTTPConnection
+        if ep.scheme == "https":
+            ctx = ssl.create_default_context()
+            conn = http.client.HTTPSConnection(ep.host, ep.port, timeout=self.timeout, context=ctx)
+        else:
+            conn = http.client.HTTPConnection(ep.host, ep.port, timeout=self.timeout)
+        headers = {
+            "Content-Type": "application/json",
+            "Accept": "application/json",
+            "Authorization": f"Bearer {self._key}",
+        }
+        watchdog = _Watchdog(self.timeout)
+        try:
+            conn.connect()  # bounded by the socket timeout
+            watchdog.watch(conn.sock)  # kept: http.client drops conn.sock once it answers
+            conn.request("POST", f"{ep.path}/chat/completions", body, headers)
+            resp = conn.getresponse()
+            return resp.status, self._read(resp, watchdog.expired)
+        except (OSError, http.client.HTTPException, ValueError) as err:
+            if watchdog.expired.is_set() or isinstance(err, TimeoutError | socket.timeout):
+                raise self._fail(Fault.TIMEOUT, f"timed out after {self.timeout:g} s") from None
+            why = getattr(err, "strerror", None) or f"{type(err).__name__}: {err}"
+            raise self._fail(Fault.CONNECTION, f"connection failed: {why}") from None
+        finally:
+            watchdog.cancel()
+            conn.close()
+
+    def _read(self, resp: http.client.HTTPResponse, expired: threading.Event) -> bytes:
+        chunks: list[bytes] = []
+        size = 0
+        while chunk := resp.read1(CHUNK):
+            size += len(chunk)
+            if size > self.max_bytes:
+                raise self._fail(Fault.TOO_LARGE, f"answer larger than {self.max_bytes} bytes")
+            chunks.append(chunk)
+        if expired.is_set():
+            raise TimeoutError
+        return b"".join(chunks)
+
+    def _response(self, data: bytes, latency: float) -> Response:
+        try:
+            text = data.decode("utf-8")
+        except UnicodeDecodeError as err:
+            raise self._fail(Fault.MALFORMED, f"answer is not UTF-8 (byte {err.start})") from None
+        try:
+            completion = json.loads(text)
+        except (ValueError, RecursionError) as err:  # ValueError: also 5000-digit numbers
+            why = getattr(err, "msg", None) or type(err).__name__
+            raise self._fail(Fault.MALFORMED, f"answer is not JSON ({why})") from None
+        try:
+            return _to_response(completion, self.model, latency, self.redact)
+        except _Shape as err:
+            raise self._fail(Fault.MALFORMED, f"not a chat completion: {err}") from None
 
     def create_kwargs(self, request: Request) -> dict[str, Any]:
-        """The keyword arguments of ``chat.completions.create`` for ``request``."""
+        """The JSON body of the chat-completions request for ``request``."""
         kwargs: dict[str, Any] = {
             "model": self.model,
             "messages": [{"role": m.role, "content": m.content} for m in request.messages],
@@ -104,53 +221,113 @@ class OpenAIBackend:
             schema = {"name": "goals", "schema": _plain(request.json_schema), "strict": True}
             kwargs["response_format"] = {"type": "json_schema", "json_schema": schema}
         if request.grammar is not None:
-            kwargs["extra_body"] = {"grammar": request.grammar}
+            kwargs["grammar"] = request.grammar  # llama.cpp's server reads it from the body
         return kwargs
+
+
+class _Watchdog:
+    """Shuts a socket down when an attempt's time is up, which unblocks whatever it waits for
+    (a server trickling its answer byte by byte never hits the per-read socket timeout)."""
+
+    def __init__(self, seconds: float) -> None:
+        self.expired = threading.Event()
+        self._sock: socket.socket | None = None
+        self._timer = threading.Timer(seconds, self._shut)
+        self._timer.daemon = True
+        self._timer.start()
+
+    def watch(self, sock: socket.socket | None) -> None:
+        self._sock = sock
+        if self.expired.is_set():
+            self._shut()
+
+    def _shut(self) -> None:
+        self.expired.set()
+        if self._sock is not None:
+            with contextlib.suppress(OSError):
+                self._sock.shutdown(socket.SHUT_RDWR)
+
+    def cancel(self) -> None:
+        self._timer.cancel()
 
 
 def _resolve_key(api_key: str | None, base_url: str | None) -> str:
     key = api_key or os.environ.get("OPENAI_API_KEY")
     if key:
+        if any(c in key for c in "\r\n\0"):
+            raise LLMError("the API key contains a line break or NUL")
         return key
     if base_url is not None:
         return LOCAL_DUMMY_KEY
     raise LLMError("no OpenAI API key: set OPENAI_API_KEY or pass base_url for a local server")
 
 
-def _make_client(base_url: str | None, api_key: str, timeout: float) -> Any:
-    try:
-        import openai
-    except ImportError:
-        raise LLMError(
-            "the openai package is not installed: pip install 'llmpas[llm]' (or pip install openai)"
-        ) from None
-    return openai.OpenAI(api_key=api_key, base_url=base_url, timeout=timeout, max_retries=0)
+class _Shape(ValueError):
+    """The answer is JSON but not a chat completion."""
 
 
-def _to_response(completion: Any, model: str, latency: float) -> Response:
-    if not completion.choices:
-        raise LLMError(f"openai:{model}: the server returned no choices")
-    choice = completion.choices[0]
-    usage = completion.usage
+def _field(obj: Any, key: str, kind: type, where: str) -> Any:
+    if not isinstance(obj, dict):
+        raise _Shape(f"{where} is not an object")
+    value = obj.get(key)
+    if not isinstance(value, kind):
+        raise _Shape(f"{where}.{key} is {_kind(value)}")
+    return value
+
+
+def _kind(value: Any) -> str:
+    return "missing" if value is None else f"a {type(value).__name__}"
+
+
+def _tokens(usage: Any, key: str) -> int:
+    value = usage.get(key, 0) if isinstance(usage, dict) else 0
+    ok = isinstance(value, int) and not isinstance(value, bool) and 0 <= value < 1 << 31
+    return value if ok else 0
+
+
+def _to_response(
+    completion: Any, model: str, latency: float, clean: Callable[[str], str]
+) -> Response:
+    choices = _field(completion, "choices", list, "answer")
+    if not choices:
+        raise _Shape("answer.choices is empty")
+    message = _field(choices[0], "message", dict, "answer.choices[0]")
+    content = message.get("content")
+    if content is not None and not isinstance(content, str):
+        raise _Shape(f"answer.choices[0].message.content is {_kind(content)}")
+    name = completion.get("model")
+    reason = choices[0].get("finish_reason")
+    usage = completion.get("usage")
     return Response(
-        text=choice.message.content or "",
-        model=completion.model or model,
-        prompt_tokens=usage.prompt_tokens if usage else 0,
-        completion_tokens=usage.completion_tokens if usage else 0,
+        text=clean(content or ""),
+        model=clean(name)[:200] if isinstance(name, str) and name else model,
+        prompt_tokens=_tokens(usage, "prompt_tokens"),
+        completion_tokens=_tokens(usage, "completion_tokens"),
         latency=latency,
-        meta={"finish_reason": choice.finish_reason},
+        meta={"finish_reason": clean(reason)[:50] if isinstance(reason, str) else None},
     )
+
+
+def _error_detail(data: bytes) -> str:
+    """``": <message>"`` from an error body (OpenAI's ``{"error": {"message": ...}}`` or the
+    text itself), for the one-line error; the caller redacts and shortens it."""
+    text = data[:4096].decode("utf-8", "replace")
+    try:
+        body = json.loads(text)
+    except (ValueError, RecursionError):
+        body = None
+    if isinstance(body, dict):
+        err = body.get("error")
+        msg = err.get("message") if isinstance(err, dict) else err
+        if isinstance(msg, str):
+            text = msg
+    return f": {text}" if text.strip() else ""
 
 
 def _plain(x: Any) -> Any:
     """Mappings (e.g. the read-only schema of a request) as plain dicts, for JSON encoding."""
-    if hasattr(x, "items"):
+    if isinstance(x, Mapping):
         return {k: _plain(v) for k, v in x.items()}
     if isinstance(x, list | tuple):
         return [_plain(v) for v in x]
     return x
-
-
-def _one_line(text: str) -> str:
-    line = " ".join(str(text).split())
-    return line if len(line) <= 200 else line[:197] + "..."

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -39,9 +40,10 @@ def run(
         status = r.episode.status.value if r.episode else "no plan"
         echo(f"{args.scenario}: {status}; goal achieved: {r.achieved}")
         return 0 if r.succeeded else 1
-    loop_config = LoopConfig(max_rounds=args.rounds, run=config)
+    deadline = getattr(args, "deadline", None)  # ``llmpas run --deadline``
+    loop_config = LoopConfig(max_rounds=args.rounds, deadline=deadline, run=config)
     if method is not None:
-        loop_config = LoopConfig(method=method, max_rounds=args.rounds, run=config)
+        loop_config = replace(loop_config, method=method)
     backend = oracle_factory if llm == "oracle" else llm
     result = run_loop(args.scenario, backend, loop_config, out)
     for i, rnd in enumerate(result.rounds):

@@ -13,6 +13,7 @@ import json
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from functools import partial
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
@@ -30,7 +31,14 @@ from llmpas.reasoning.goals import Vocabulary
 from llmpas.reasoning.llm import LLM, Request, Response
 from llmpas.reasoning.methods import Situation
 from llmpas.reasoning.program import Call
-from llmpas.system import LoopResult, LoopSettings, Round, close_loop, loop_markdown
+from llmpas.system import (
+    LoopResult,
+    LoopSettings,
+    LoopStatus,
+    Round,
+    close_loop,
+    loop_markdown,
+)
 from llmpas.worlds.household.problem import load_domain
 from llmpas.worlds.pybullet.decomposition import table_of
 from llmpas.worlds.pybullet.problem import believed_pose
@@ -226,17 +234,20 @@ def run_loop(
     config = config or LoopConfig()
     scenario = resolve(scenario)
     t0 = time.perf_counter()
+    records = None if out is None else partial(save_records, folder=out)
     with open_client(config.run.gui) as cid:
         session = Session(scenario, config.run, cid)
         world = PyBulletLoopWorld.of(session)
         if isinstance(llm, LLM):
-            result = close_loop(world, llm, config)
+            result = close_loop(world, llm, config, records)
         else:
             factory = llm
-            result = close_loop(world, lambda report: factory(session, report), config)
+            result = close_loop(world, lambda report: factory(session, report), config, records)
         session.world.snapshot("end")
         timings = dict(session.timings, total=time.perf_counter() - t0)
-        result = replace(result, success=session.achieved(), timings=timings)
+        ended = result.status not in (LoopStatus.DONE, LoopStatus.NOT_DONE)
+        status = result.status if ended else None  # None: from success, judged in the truth
+        result = replace(result, success=session.achieved(), timings=timings, status=status)
         if out is not None:
             save_loop(result, world, out)
     return result
@@ -267,9 +278,17 @@ def save_loop(result: LoopResult, world: PyBulletLoopWorld, folder: str | Path) 
                 written += save_episode(
                     rnd.episode, out / f"round-{i}", world.specs(rnd.episode), title
                 )
-    written.append(atomic_write(out / "loop.json", json.dumps(loop_json(result), indent=2)))
-    written.append(atomic_write(out / "loop.md", loop_markdown(result)))  # prompts and answers
-    return written
+    return written + save_records(result, out)
+
+
+def save_records(result: LoopResult, folder: str | Path) -> list[Path]:
+    """``loop.json`` and ``loop.md`` (every prompt and answer), atomically; written after every
+    round while the loop runs, so a crash or an interrupt keeps what happened."""
+    out = Path(folder)
+    return [
+        atomic_write(out / "loop.json", json.dumps(loop_json(result), indent=2)),
+        atomic_write(out / "loop.md", loop_markdown(result)),
+    ]
 
 
 def loop_json(result: LoopResult) -> dict[str, Any]:
@@ -296,6 +315,8 @@ def loop_json(result: LoopResult) -> dict[str, Any]:
         "scenario": result.scenario,
         "success": result.success,
         "message": result.message,
+        "status": result.status.value if result.status else None,
+        "error": result.error or None,
         "llm_calls": result.llm_calls,
         "llm_time": round(result.llm_time, 3),
         "timings": {k: round(v, 3) for k, v in result.timings.items()},
@@ -317,4 +338,5 @@ __all__ = [
     "oracle_factory",
     "run_loop",
     "save_loop",
+    "save_records",
 ]
