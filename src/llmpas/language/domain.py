@@ -14,6 +14,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
+from llmpas.inputs import PDDL_LIMIT, read_text
 from llmpas.language.errors import ModelError
 from llmpas.language.logic import (
     TRUE,
@@ -219,7 +220,7 @@ def _has_increase(effects: Iterable[EffectItem]) -> bool:
 
 def read_domain(path: str | Path) -> Domain:
     path = Path(path)
-    return parse_domain(path.read_text(encoding="utf-8"), str(path))
+    return parse_domain(read_text(path, "PDDL domain file", PDDL_LIMIT), str(path))
 
 
 def parse_domain(text: str, filename: str = "<domain>") -> Domain:

@@ -8,6 +8,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
+from llmpas.inputs import PDDL_LIMIT, read_text
 from llmpas.language.bindings import BoundFunction, BoundStream, StreamInfo, bind
 from llmpas.language.domain import Domain, parse_typed_list, read_domain, reader_for_formulas
 from llmpas.language.errors import ModelError
@@ -363,7 +364,8 @@ def read_problem(
     else:
         spec = read_streams(streams)
     path = Path(problem)
-    pf = parse_problem_text(path.read_text(encoding="utf-8"), dom, str(path))
+    text = read_text(path, "PDDL problem file", PDDL_LIMIT)
+    pf = parse_problem_text(text, dom, str(path))
     bs, bf = bind(spec, implementations or {}, info)
     try:
         return Problem(

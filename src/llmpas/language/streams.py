@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from llmpas.inputs import PDDL_LIMIT, read_text
 from llmpas.language.errors import ModelError
 from llmpas.language.logic import Atom, conjuncts
 from llmpas.language.sexpr import (
@@ -99,7 +100,7 @@ EMPTY_STREAMS = StreamSpec("empty")
 
 def read_streams(path: str | Path) -> StreamSpec:
     path = Path(path)
-    return parse_streams(path.read_text(encoding="utf-8"), str(path))
+    return parse_streams(read_text(path, "PDDL stream file", PDDL_LIMIT), str(path))
 
 
 def parse_streams(text: str, filename: str = "<stream>") -> StreamSpec:

@@ -13,10 +13,11 @@ from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 
+from llmpas import inputs
+from llmpas.errors import InputError
 from llmpas.examples._files import read_text
 from llmpas.examples.blocksworld import PACKAGE, problem_text
 from llmpas.language.domain import Domain, parse_domain
-from llmpas.language.errors import LanguageError
 from llmpas.language.logic import Atom, Formula, Not, conjuncts
 from llmpas.language.problem import Problem, parse_problem_text
 from llmpas.language.streams import EMPTY_STREAMS
@@ -29,7 +30,7 @@ log = logging.getLogger(__name__)
 OPTIMAL_SEARCH = "astar(lmcut())"
 
 
-class TaskError(ValueError):
+class TaskError(InputError):
     """A problem file that cannot be used: one line naming the file."""
 
 
@@ -104,10 +105,10 @@ def read_tasks(folder: str | Path) -> list[Task]:
     tasks = []
     for path in files:
         try:
-            text = path.read_text(encoding="utf-8")
+            text = inputs.read_text(path, "PDDL problem file", inputs.PDDL_LIMIT)
             task = Task(path.stem, 1, str(path), text)
             problem = task.problem()
-        except (LanguageError, OSError, UnicodeDecodeError) as err:
+        except (InputError, OSError) as err:
             message = " ".join(str(err).split())
             raise TaskError(
                 message if message.startswith(str(path)) else f"{path}: {message}"
