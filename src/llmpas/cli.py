@@ -9,7 +9,8 @@ import os
 import sys
 import tempfile
 import traceback
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -21,6 +22,7 @@ from rich.text import Text
 from llmpas.errors import (
     EXIT_CODES_HELP,
     ExitCode,
+    InputError,
     LlmpasError,
     OutputError,
     PlannerError,
@@ -28,6 +30,7 @@ from llmpas.errors import (
     one_line,
 )
 from llmpas.files import atomic_write
+from llmpas.language.errors import BindingError, LanguageError
 from llmpas.language.problem import Problem, read_problem
 from llmpas.options import bounded_int, positive_float, positive_int, seed
 from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, solve
@@ -93,7 +96,10 @@ def _problem_from_args(args: argparse.Namespace) -> Problem:
     domain = read_domain(args.domain)  # the text first: then the user's code
     streams = read_streams(args.streams) if args.streams else None
     bindings = load_bindings(args.bindings) if args.bindings else {}
-    return read_problem(domain, args.problem, streams, bindings)
+    try:
+        return read_problem(domain, args.problem, streams, bindings)
+    except BindingError as e:  # the declarations and the implementations do not match
+        raise InputError(f"{e} (--bindings {args.bindings})") from None
 
 
 def _cmd_plan(args: argparse.Namespace, console: Console) -> int:
@@ -297,13 +303,26 @@ def _scenario_file(name: str) -> Path:
         raise CliError(str(e)) from None
 
 
+@contextmanager
+def _naming(path: Path) -> Iterator[None]:
+    """Problem-language errors raised while the problem of the scenario ``path`` is built (its
+    goal names an unknown predicate, say) name the file."""
+    try:
+        yield
+    except LanguageError as e:
+        if str(e).startswith(str(path)):
+            raise
+        raise InputError(f"{path}: task.goal: {e}") from None
+
+
 def _run_household(args: argparse.Namespace, console: Console) -> Any:
     from llmpas.worlds.household.run import RunConfig, run_scenario
     from llmpas.worlds.household.scenario import load_scenario
 
     config = RunConfig(planner=_planner_config(args), seed=args.seed)
-    scenario = load_scenario(_scenario_file(args.scenario))
-    with console.status(f"planning and executing {args.scenario} ..."):
+    path = _scenario_file(args.scenario)
+    scenario = load_scenario(path)
+    with console.status(f"planning and executing {args.scenario} ..."), _naming(path):
         return run_scenario(scenario, config)
 
 
@@ -350,13 +369,15 @@ def _cmd_bt(args: argparse.Namespace, console: Console) -> int:
     from llmpas.worlds.household.run import belief_from, household_for
     from llmpas.worlds.household.scenario import load_scenario
 
-    scenario = load_scenario(_scenario_file(args.scenario))
+    path = _scenario_file(args.scenario)
+    scenario = load_scenario(path)
     house = household_for(scenario)
     import numpy as np
 
-    problem = make_problem(
-        house, belief_from(house, scenario), scenario.goal, np.random.default_rng(args.seed)
-    )
+    with _naming(path):
+        problem = make_problem(
+            house, belief_from(house, scenario), scenario.goal, np.random.default_rng(args.seed)
+        )
     result = solve(problem, _planner_config(args))
     if result.plan is None:
         raise _planning_failed(result)
@@ -451,7 +472,22 @@ def _world(args: argparse.Namespace) -> str:
     return "pybullet" if args.scenario in PYBULLET_SCENARIOS else "household"
 
 
+def _import_quietly(module: str) -> None:
+    """Import ``module`` with stderr sent to /dev/null (pybullet prints its build date there)."""
+    import importlib
+
+    saved, devnull = os.dup(2), os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 2)
+        importlib.import_module(module)
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(devnull)
+
+
 def _cmd_run_pybullet(args: argparse.Namespace, console: Console) -> int:
+    _import_quietly("pybullet")
     from llmpas.reasoning.methods import MethodConfig
     from llmpas.worlds.pybullet import cli as pb
     from llmpas.worlds.pybullet.run import scenarios
@@ -490,9 +526,11 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
         )
     except ValueError as e:
         raise CliError(str(e)) from None
-    scenario = load_scenario(_scenario_file(args.scenario))
+    path = _scenario_file(args.scenario)
+    scenario = load_scenario(path)
     llm = _llm(args.llm, args.record)
-    with console.status(f"running {args.scenario} with {args.llm} ({args.method}) ..."):
+    status = f"running {args.scenario} with {args.llm} ({args.method}) ..."
+    with console.status(status), _naming(path):
         result = run_loop(scenario, llm, config)
     for i, rnd in enumerate(result.rounds):
         ep = rnd.episode
@@ -554,8 +592,10 @@ def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def _cmd_model_install(args: argparse.Namespace, console: Console) -> int:
-    from llmpas.reasoning.models import install_with_progress
+    from llmpas.reasoning.models import MODELS, install_with_progress
 
+    if args.name not in MODELS:
+        raise CliError(f"unknown model {args.name!r}; known models: {', '.join(sorted(MODELS))}")
     try:
         path = install_with_progress(args.name, args.cache)
     except KeyError as e:  # an unknown model name (LLM and disk errors keep their class)

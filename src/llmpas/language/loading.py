@@ -23,7 +23,7 @@ from llmpas.inputs import PYTHON_LIMIT, read_text
 from llmpas.language.bindings import Implementation
 from llmpas.limits import TimeLimitExpired, time_limit
 
-IMPORT_SECONDS = 60.0  # running a bindings file (or calling its factory) at most this long
+IMPORT_SECONDS = 30.0  # running a bindings file (or calling its factory) at most this long
 
 
 def load_bindings(spec: str, seconds: float = IMPORT_SECONDS) -> Mapping[str, Any]:

@@ -10,7 +10,7 @@ from typing import Any
 
 from llmpas.inputs import PDDL_LIMIT, read_text
 from llmpas.language.bindings import BoundFunction, BoundStream, StreamInfo, bind
-from llmpas.language.domain import Domain, parse_typed_list, read_domain, reader_for_formulas
+from llmpas.language.domain import Domain, read_domain, reader_for_formulas, typed_names
 from llmpas.language.errors import ModelError
 from llmpas.language.logic import (
     And,
@@ -295,7 +295,7 @@ def parse_problem_text(text: str, domain: Domain, filename: str = "<problem>") -
             if dom_name != domain.name:
                 raise s.pos.error(f"problem is for domain '{dom_name}', not '{domain.name}'")
         elif key == ":objects":
-            objects.update({p.name: p.type for p in parse_typed_list(s.items[1:], ":objects")})
+            _read_objects(s, domain, objects)
         elif key == ":init":
             _read_init(s.items[1:], init, costs)
         elif key == ":goal":
@@ -307,6 +307,18 @@ def parse_problem_text(text: str, domain: Domain, filename: str = "<problem>") -
     if goal is None:
         raise root.pos.error("problem has no ':goal'")
     return ProblemFile(name, dom_name, objects, tuple(init), costs, goal)
+
+
+def _read_objects(s: SList, domain: Domain, objects: dict[str, str]) -> None:
+    """``(:objects a b - t ...)``: types declared in the domain, every name once."""
+    types = frozenset(domain.types) | frozenset(domain.types.values()) | {"object"}
+    constants = {c.name for c in domain.constants}
+    for p, sym in typed_names(s.items[1:], ":objects", types):
+        if p.name in objects:
+            raise sym.pos.error(f"object '{p.name}' is declared twice")
+        if p.name in constants:
+            raise sym.pos.error(f"object '{p.name}' is already a constant of the domain")
+        objects[p.name] = p.type
 
 
 def _read_init(items: tuple[SExpr, ...], init: list[Atom], costs: dict[FuncTerm, float]) -> None:

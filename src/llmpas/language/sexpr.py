@@ -102,11 +102,11 @@ def parse_one(text: str, filename: str = "<string>") -> SList:
     exprs = parse_all(text, filename)
     if not exprs:
         raise Pos(filename, 1, 1).error("empty file: expected '(define ...)'")
-    if len(exprs) > 1:
-        raise exprs[1].pos.error("unexpected text after the end of the definition")
     first = exprs[0]
     if not isinstance(first, SList):
         raise first.pos.error(f"expected '(define ...)', found '{first.text}'")
+    if len(exprs) > 1:
+        raise exprs[1].pos.error("unexpected text after the end of the definition")
     return first
 
 

@@ -155,6 +155,8 @@ def _stream(s: SList) -> StreamSchema:
     if len(s) < 2:
         raise s.pos.error("expected '(:stream NAME :inputs ... )'")
     name = expect_sym(s[1], "a stream name").text
+    if name.startswith(":"):
+        raise s[1].pos.error(f"expected a stream name, found '{name}'")
     fields: dict[str, tuple[Sym, SExpr]] = {}
     for key, vals in keyword_sections(s.items[2:], f"stream '{name}'"):
         if len(vals) != 1:
