@@ -10,7 +10,8 @@ Cases come from two sources:
 
 - ``tests/data/bad_inputs/KIND/*``: one defective file each (domain, problem and stream PDDL,
   ``--bindings`` Python files, household scenario TOML), whose first line says what to expect:
-  ``; expect: CODE TEXT`` (``#`` for Python and TOML). Each runs with good companions;
+  ``; expect: CODE TEXT`` (``#`` for Python and TOML). Each runs with good companions
+  (``hangs/``: bindings whose streams never return, planned with ``--max-time 2``);
 - :data:`GENERATED`: cases that cannot be committed as small text files (encodings, FIFOs,
   devices, multi-MB and deeply nested inputs, hostile file names) and bad options and paths.
 
@@ -96,6 +97,8 @@ STATIC_ARGV: dict[str, Callable[[str], tuple[str, ...]]] = {
     "problem": lambda f: plan_files(problem=f),
     "stream": lambda f: plan_files(streams=f),
     "bindings": lambda f: plan_files(bindings=f"{f}:STREAMS"),
+    # stream implementations that never return: planning is stopped 1.5 x --max-time + 10 s in
+    "hangs": lambda f: (*plan_files(bindings=f"{f}:STREAMS"), "--max-time", "2"),
     "scenario": execute,
 }
 EXPECT = re.compile(rb"^[;#] expect: (\d+) ?(.*)$")

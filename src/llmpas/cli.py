@@ -32,6 +32,7 @@ from llmpas.errors import (
 from llmpas.files import atomic_write
 from llmpas.language.errors import BindingError, LanguageError
 from llmpas.language.problem import Problem, read_problem
+from llmpas.limits import time_limit
 from llmpas.options import bounded_int, positive_float, positive_int, seed
 from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, solve
 
@@ -105,7 +106,14 @@ def _problem_from_args(args: argparse.Namespace) -> Problem:
 def _cmd_plan(args: argparse.Namespace, console: Console) -> int:
     problem = _problem_from_args(args)
     config = _planner_config(args)
-    with console.status(f"planning ({config.algorithm}, defer={config.defer})..."):
+    limit = config.max_time * 1.5 + 10  # a stream implementation may never return
+    culprit = f"a stream of --bindings {args.bindings}" if args.bindings else "the planner"
+    late = PlannerError(
+        f"planning did not end within {limit:g} s (--max-time {config.max_time:g}): "
+        f"{culprit} did not return"
+    )
+    status = f"planning ({config.algorithm}, defer={config.defer})..."
+    with console.status(status), time_limit(limit, late):
         result = solve(problem, config)
     if args.json:
         sys.stdout.write(result.dumps() + "\n")

@@ -213,7 +213,7 @@ def test_cli_runs_with_the_oracle(tmp_path: Path, capsys: pytest.CaptureFixture[
 
 
 def test_cli_errors_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["bench", "blocksworld", "--problems", str(DATA / "malformed")]) == 3  # an input file
+    assert main(["bench", "blocksworld", "--problems", str(DATA / "malformed")]) == 3  # input
     err = capsys.readouterr().err
     assert "bad.pddl" in err and "never closed" in err
     assert main(["bench", "blocksworld", "--count", "0", "--out", str(tmp_path)]) == 2
