@@ -99,7 +99,7 @@ def decode_text(data: bytes, name: str, what: str) -> str:
         ) from None
     nul = data.find(b"\0")
     if nul >= 0:
-        hint = " (UTF-16 text?)" if data.count(b"\0") * 4 >= len(data) else ""
+        hint = " (UTF-16 text?)" if len(data) >= 8 and data.count(b"\0") * 3 >= len(data) else ""
         raise InputError(
             f"{name}:{_line(data, nul)}: {what} holds a NUL byte at byte offset "
             f"{nul}{hint}; expected UTF-8 text"
