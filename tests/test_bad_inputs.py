@@ -44,6 +44,7 @@ TIMEOUT = 60.0  # seconds per case
 WORKERS = min(4, max(2, os.cpu_count() or 2))
 
 USAGE, INPUT, PLANNER, IO = ExitCode.USAGE, ExitCode.INPUT, ExitCode.PLANNER, ExitCode.IO
+LLM = ExitCode.LLM
 
 
 @dataclass(frozen=True)
@@ -222,6 +223,10 @@ def make_generated(folder: Path) -> None:
     os.mkfifo(folder / "fifo.toml")
     os.mkfifo(folder / "fifo.py")
     (folder / "folder.pddl").mkdir()
+    (folder / "problems-utf16").mkdir()
+    (folder / "problems-utf16" / "p1.pddl").write_bytes(PROBLEM.decode().encode("utf-16"))
+    (folder / "problems-fifo").mkdir()
+    os.mkfifo(folder / "problems-fifo" / "p1.pddl")
     bad_name = os.fsencode(folder / "undecodable-") + b"\xff\xfe.pddl"
     with open(bad_name, "wb") as f:
         f.write(DOMAIN.replace(b"(:predicates (Block", b"(:predicate (Block"))
@@ -349,6 +354,21 @@ GENERATED: list[Case] = [
     Case("run:unknown-scenario", ("run", "nosuch", "--llm", "oracle"), USAGE, ("'nosuch'",)),
     Case("run:fifo", ("run", _gen("fifo.toml"), "--llm", "oracle"), INPUT, ("fifo.toml",)),
     Case("bt:unknown-scenario", ("bt", "show", "nosuch"), USAGE, ("'nosuch'",)),
+    Case("names:long-scenario", execute("s" * 5000), USAGE, ("File name too long",)),
+    Case("names:path-traversal", execute("../" * 12 + "etc/passwd"), INPUT,
+         ("etc/passwd", "invalid TOML")),
+    Case("names:scenario-with-newline", execute("nomi\nnal"), USAGE, ("'nomi\\nnal'",)),
+    Case("bench:problems-utf16", ("bench", "blocksworld", "--llm", "oracle", "--problems",
+                                  _gen("problems-utf16")), INPUT, ("p1.pddl", "UTF-16")),
+    Case("bench:problems-fifo", ("bench", "blocksworld", "--llm", "oracle", "--problems",
+                                 _gen("problems-fifo")), INPUT, ("p1.pddl", "FIFO")),
+    Case("bench:problems-missing", ("bench", "blocksworld", "--llm", "oracle", "--problems",
+                                    "nope"), INPUT, ("nope",)),
+    Case("bench:suite-device", ("bench", "prompting", "--llm", "oracle", "--suite", "/dev/null"),
+         INPUT, ("/dev/null",)),
+    Case("llm:model-is-a-device", ("run", "nominal", "--llm", "llama-cpp:/dev/zero"), LLM,
+         ("/dev/zero",)),
+    Case("llm:model-is-a-folder", ("run", "nominal", "--llm", "llama-cpp:/"), LLM, ("model",)),
     Case("bt:utf16", ("bt", "export", _gen("utf16-scenario.toml")), INPUT, ("utf16-scenario",)),
     # ------------------------------------------------------------------ options
     *(
@@ -402,6 +422,13 @@ GENERATED: list[Case] = [
     Case("option:pybullet scenario", ("run", "nosuch", "--world", "pybullet"), USAGE,
          ("PyBullet scenario", "'nosuch'")),
     Case("option:model name", ("model", "install", "no-such-model"), USAGE, ("no-such-model",)),
+    Case("option:--temperature nan", ("bench", "prompting", "--llm", "oracle", "--temperature",
+                                      "nan"), USAGE, ("temperature",)),
+    Case("option:--samples 0", ("bench", "prompting", "--llm", "oracle", "--samples", "0"),
+         USAGE, ("samples",)),
+    Case("option:--count -1", ("bench", "blocksworld", "--llm", "oracle", "--count", "-1"),
+         USAGE, ("count",)),
+    Case("option:bench all --jobs -1", ("bench", "all", "--jobs", "-1"), USAGE, ("jobs",)),
     # ------------------------------------------------------------------ --out and other outputs
     Case("out:/proc", execute("nominal", "--out", "/proc/x"), IO, ("--out /proc/x",)),
     Case("out:/proc/self", execute("nominal", "--out", "/proc/self/x/y"), IO, ("--out",)),

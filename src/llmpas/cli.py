@@ -309,6 +309,8 @@ def _scenario_file(name: str) -> Path:
         return scenario_path(name)
     except FileNotFoundError as e:
         raise CliError(str(e)) from None
+    except OSError as e:  # a name too long for a path, say
+        raise CliError(f"scenario {name!r}: {e.strerror or e}") from None
 
 
 @contextmanager
