@@ -193,6 +193,9 @@ def generated_files() -> dict[str, bytes]:
         "deep-array.toml": n + b"\nx = " + b"[" * 100_000 + b"]" * 100_000 + b"\n",
         "deep-inline-table.toml": n + b"\nx = " + b"{a=" * 5000 + b"1" + b"}" * 5000 + b"\n",
         "dotted-key.toml": n + b"\n" + b"a." * 200_000 + b"a = 1\n",
+        "many-fields.toml": n.replace(
+            b"seed = 1", b"seed = 1\n" + b"".join(b"k%d = %d\n" % (i, i) for i in range(20_000))
+        ),
         "deep-goal.toml": n.replace(
             b'goal = "(and (On cube bowl))"', b'goal = "' + b"(not " * 50_000 + b'"'
         ),
@@ -343,6 +346,8 @@ GENERATED: list[Case] = [
          ("deep-inline-table.toml",)),
     Case("scenario:dotted-key", execute(_gen("dotted-key.toml")), INPUT,
          ("dotted-key.toml", "more than 16 dotted parts")),
+    Case("scenario:many-fields", execute(_gen("many-fields.toml")), INPUT,
+         ("many-fields.toml", "k0: unknown field")),
     Case("scenario:deep-goal", execute(_gen("deep-goal.toml")), INPUT,
          ("deep-goal.toml", "nested deeper than 100 levels")),
     Case("scenario:fifo", execute(_gen("fifo.toml")), INPUT, ("fifo.toml", "FIFO")),
