@@ -122,7 +122,6 @@ def static_cases() -> list[Case]:
 
 DOMAIN = (GOOD / "domain.pddl").read_bytes()
 PROBLEM = (GOOD / "problem.pddl").read_bytes()
-NOMINAL = Path("src/llmpas/worlds/household/scenarios/nominal.toml")
 
 
 def _nominal() -> bytes:
@@ -132,7 +131,7 @@ def _nominal() -> bytes:
 
 
 def _deep(opening: str, depth: int) -> bytes:
-    inner = "(and " * 0 + opening * depth + "(Conf ?q1)" + ")" * depth
+    inner = opening * depth + "(Conf ?q1)" + ")" * depth
     return DOMAIN.replace(b"(and (Conf ?q1) (Conf ?q2) (AtConf ?q1))", inner.encode())
 
 
@@ -157,7 +156,7 @@ def _blowup() -> bytes:
 def generated_files() -> dict[str, bytes]:
     """File name -> bytes, written to ``{gen}`` once per session."""
     d, p, n = DOMAIN, PROBLEM, _nominal()
-    nul_py = b"STREAMS = {}\n"
+    empty_bindings = b"STREAMS = {}\n"
     blowup_domain, blowup_problem = _blowup().split(b"\x00")
     return {
         "utf16-bom.pddl": codecs.BOM_UTF16_LE + d.decode().encode("utf-16-le"),
@@ -178,8 +177,8 @@ def generated_files() -> dict[str, bytes]:
         "utf16-scenario.toml": n.decode().encode("utf-16"),
         "latin1-scenario.toml": n.replace(b"Put the cube", "Put the cubé".encode("latin-1")),
         "nul-scenario.toml": n.replace(b"seed = 1", b"seed = 1\x00"),
-        "utf16-bindings.py": nul_py.decode().encode("utf-16"),
-        "latin1-bindings.py": b"# caf\xe9\n" + nul_py,
+        "utf16-bindings.py": empty_bindings.decode().encode("utf-16"),
+        "latin1-bindings.py": b"# caf\xe9\n" + empty_bindings,
         "deep-and.pddl": _deep("(and ", 100_000),
         "deep-not.pddl": _deep("(not ", 50_000),
         "deep-open.pddl": b"(" * 1_000_000,
@@ -188,7 +187,7 @@ def generated_files() -> dict[str, bytes]:
         "huge-domain.pddl": d + b"; " + b"x" * (8 * 1024 * 1024) + b"\n",
         "huge-problem.pddl": p + b" " * (8 * 1024 * 1024 + 1),
         "huge-scenario.toml": n + b"# " + b"y" * (1024 * 1024) + b"\n",
-        "huge-bindings.py": nul_py + b"#" * (4 * 1024 * 1024 + 1),
+        "huge-bindings.py": empty_bindings + b"#" * (4 * 1024 * 1024 + 1),
         "many-tokens.pddl": d.replace(b"(:requirements", b"()" * 500_000 + b"(:requirements"),
         "deep-array.toml": n + b"\nx = " + b"[" * 100_000 + b"]" * 100_000 + b"\n",
         "deep-inline-table.toml": n + b"\nx = " + b"{a=" * 5000 + b"1" + b"}" * 5000 + b"\n",
