@@ -153,6 +153,27 @@ def _blowup() -> bytes:
     return (domain + "\x00" + problem).encode()
 
 
+RAISING = f"""import sys
+sys.path.insert(0, {str(GOOD)!r})
+from streams import make_streams
+from llmpas.language.bindings import sampler, test
+
+def wrong_shape(b, p):
+    yield "not a tuple"
+
+def not_bool(*args):
+    return "yes"
+
+def raises(b, r):
+    raise ZeroDivisionError("calibration")
+    yield
+
+SHAPE = {{**make_streams(), "reach": sampler(wrong_shape)}}
+TEST = {{**make_streams(), "test-cfree": test(not_bool)}}
+RAISES = {{**make_streams(), "sample-pose": sampler(raises)}}
+""".encode()
+
+
 def generated_files() -> dict[str, bytes]:
     """File name -> bytes, written to ``{gen}`` once per session."""
     d, p, n = DOMAIN, PROBLEM, _nominal()
@@ -200,6 +221,7 @@ def generated_files() -> dict[str, bytes]:
         ),
         "deep-bindings.py": b"x = " + b"[" * 100_000 + b"]" * 100_000 + b"\n",
         "hang-at-import.py": b"while True:\n    pass\n",
+        "raising.py": RAISING,
         "blowup-domain.pddl": blowup_domain,
         "blowup-problem.pddl": blowup_problem,
         "empty.pddl": b"",
@@ -317,6 +339,12 @@ GENERATED: list[Case] = [
          ("/dev/zero", "device")),
     Case("bindings:hang", plan_files(bindings=_gen("hang-at-import.py:STREAMS")), INPUT,
          ("hang-at-import.py", "took longer than 30 s"), timeout=90),
+    Case("bindings:wrong-output-shape", plan_files(bindings=_gen("raising.py:SHAPE")), PLANNER,
+         ("planner: stream reach(", "produced 'not a tuple'; expected a tuple of 1 output")),
+    Case("bindings:test-not-bool", plan_files(bindings=_gen("raising.py:TEST")), PLANNER,
+         ("planner: stream test-cfree(", "returned str, not bool")),
+    Case("bindings:sampler-raises", plan_files(bindings=_gen("raising.py:RAISES")), PLANNER,
+         ("planner: stream sample-pose(", "raised ZeroDivisionError: calibration")),
     Case("bindings:no-name", plan_files(bindings="{good}/streams.py"), USAGE, ("--bindings",)),
     Case("bindings:empty-name", plan_files(bindings="{good}/streams.py:"), USAGE, ("--bindings",)),
     Case("bindings:bad-name", plan_files(bindings="{good}/streams.py:1x"), USAGE, ("--bindings",)),
