@@ -462,6 +462,9 @@ GENERATED: list[Case] = [
     Case("option:--count -1", ("bench", "blocksworld", "--llm", "oracle", "--count", "-1"),
          USAGE, ("count",)),
     Case("option:bench all --jobs -1", ("bench", "all", "--jobs", "-1"), USAGE, ("jobs",)),
+    Case("option:--examples", ("bench", "planning-time", "--examples", "sokoban"), USAGE,
+         ("--examples", "'sokoban'", "tamp2d")),
+    Case("option:--seeds -1", ("bench", "validate-data", "--seeds", "-1"), USAGE, ("--seeds",)),
     # ------------------------------------------------------------------ --out and other outputs
     Case("out:/proc", execute("nominal", "--out", "/proc/x"), IO, ("--out /proc/x",)),
     Case("out:/proc/self", execute("nominal", "--out", "/proc/self/x/y"), IO, ("--out",)),

@@ -182,7 +182,13 @@ def _cmd_examples(args: argparse.Namespace, console: Console) -> int:
 
 
 def _cmd_bench_planning_time(args: argparse.Namespace, console: Console) -> int:
+    from llmpas.examples import EXAMPLES
     from llmpas.experiments.planning_time import BenchConfig, run_planning_time
+
+    unknown = [e for e in args.examples if e not in EXAMPLES]
+    if unknown:
+        known = ", ".join(sorted(EXAMPLES))
+        raise CliError(f"--examples: unknown example {unknown[0]!r}; examples: {known}")
 
     try:
         config = BenchConfig(

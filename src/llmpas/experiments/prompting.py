@@ -35,6 +35,7 @@ from typing import Any
 
 from rich.console import Console
 
+from llmpas.errors import UsageError
 from llmpas.experiments.jobs import Job, add_llm_argument, backend, fingerprint, run_jobs
 from llmpas.experiments.suite import (
     HASH_SEEDS,
@@ -497,8 +498,7 @@ def validate_command(args: argparse.Namespace, console: Console) -> int:
     from llmpas.experiments.suite import SuiteError, task_files, validate_folder
 
     if args.seeds < 0 or args.jobs < 1:
-        console.print("[bold red]error[/]: --seeds must be >= 0 and --jobs >= 1")
-        return 2
+        raise UsageError("--seeds must be >= 0 and --jobs >= 1")
     folder = Path(args.folder)
     config = LoopConfig(run=RunConfig(planner=PlannerConfig(max_time=args.max_time)))
     try:
