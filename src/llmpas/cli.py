@@ -3,32 +3,53 @@
 from __future__ import annotations
 
 import argparse
-import importlib
-import importlib.util
 import json
 import logging
-import math
+import os
 import sys
-from collections.abc import Callable, Mapping, Sequence
+import tempfile
+import traceback
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from rich.console import Console
 from rich.logging import RichHandler
 from rich.markup import escape
 from rich.table import Table
+from rich.text import Text
 
-from llmpas.language.errors import LanguageError
+from llmpas.errors import (
+    EXIT_CODES_HELP,
+    ExitCode,
+    InputError,
+    LlmpasError,
+    OutputError,
+    PlannerError,
+    UsageError,
+    one_line,
+)
+from llmpas.files import atomic_write
+from llmpas.language.errors import BindingError, LanguageError
 from llmpas.language.problem import Problem, read_problem
-from llmpas.planning import PlannerConfig, PlanResult, solve
+from llmpas.limits import time_limit
+from llmpas.options import bounded_int, positive_float, positive_int, seed
+from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, solve
 from llmpas.safetext import RedactingFilter, env_secrets, printable, redact
 
 Handler = Callable[[argparse.Namespace, Console], int]
+MAX_EXAMPLE_SIZE = 100
 
 
-class CliError(Exception):
-    """A user error: printed as one line, exit status 2."""
+class CliError(UsageError):
+    """A user error: printed as one line; exit status 2 (usage) unless ``code`` says another."""
+
+    def __init__(self, message: str, code: ExitCode | None = None) -> None:
+        super().__init__(message)
+        if code is not None:
+            self.code = code
 
 
 # ------------------------------------------------------------------------------------- plan
@@ -44,8 +65,10 @@ def _add_planner_options(p: argparse.ArgumentParser) -> None:
         "deferred, every stream computed while planning",
     )
     p.add_argument("--eager", action="store_true", help=argparse.SUPPRESS)  # old --no-defer
-    p.add_argument("--max-time", type=float, default=60.0, help="seconds for the whole plan")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument(
+        "--max-time", type=positive_float, default=60.0, help="seconds for the whole plan"
+    )
+    p.add_argument("--seed", type=seed, default=0)
 
 
 def _planner_config(args: argparse.Namespace) -> PlannerConfig:
@@ -63,45 +86,6 @@ def _planner_config(args: argparse.Namespace) -> PlannerConfig:
         raise CliError(str(e)) from None
 
 
-def _load_bindings(spec: str | None) -> tuple[Mapping[str, Any], Mapping[str, Any]]:
-    """``MODULE:NAME`` or ``path/to/file.py:NAME`` -> (the mapping stream name ->
-    implementation, the module's ``VALUES``: object name -> Python value, or {})."""
-    if spec is None:
-        return {}, {}
-    where, _, attr = spec.rpartition(":")
-    if not where or not attr:
-        raise CliError(f"--bindings {spec!r}: expected MODULE:NAME or FILE.py:NAME")
-    try:
-        module = _import(where)
-        obj = getattr(module, attr)
-    except (ImportError, AttributeError, OSError) as e:
-        raise CliError(f"--bindings {spec!r}: {e}") from None
-    try:
-        value = obj if isinstance(obj, Mapping) or not callable(obj) else obj()
-    except TypeError as e:
-        raise CliError(f"--bindings {spec!r}: calling it failed: {e}") from None
-    if not isinstance(value, Mapping):
-        raise CliError(f"--bindings {spec!r} is {type(value).__name__}, not a mapping")
-    values = getattr(module, "VALUES", {})
-    if not isinstance(values, Mapping):
-        raise CliError(f"--bindings {spec!r}: VALUES is {type(values).__name__}, not a mapping")
-    return value, values
-
-
-def _import(where: str) -> Any:
-    if not where.endswith(".py"):
-        return importlib.import_module(where)
-    path = Path(where)
-    if not path.is_file():
-        raise ImportError(f"{where}: no such file")
-    spec = importlib.util.spec_from_file_location(f"llmpas_bindings_{path.stem}", path)
-    if spec is None or spec.loader is None:
-        raise ImportError(f"{where}: cannot be imported")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 def _problem_from_args(args: argparse.Namespace) -> Problem:
     if args.example:
         from llmpas.examples import get_example
@@ -113,22 +97,37 @@ def _problem_from_args(args: argparse.Namespace) -> Problem:
         return ex.make_problem(args.size or ex.default_size, args.seed)
     if not args.domain or not args.problem:
         raise CliError("give DOMAIN and PROBLEM files, or --example NAME")
-    for f in (args.domain, args.problem, args.streams):
-        if f is not None and not Path(f).is_file():
-            raise CliError(f"{f}: no such file")
-    impls, values = _load_bindings(args.bindings)
-    return read_problem(args.domain, args.problem, args.streams, impls, values=values)
+    from llmpas.language.domain import read_domain
+    from llmpas.language.loading import load_bindings_and_values
+    from llmpas.language.streams import read_streams
+
+    domain = read_domain(args.domain)  # the text first: then the user's code
+    streams = read_streams(args.streams) if args.streams else None
+    bindings, values = load_bindings_and_values(args.bindings) if args.bindings else ({}, {})
+    try:
+        return read_problem(domain, args.problem, streams, bindings, values=values)
+    except BindingError as e:  # the declarations and the implementations do not match
+        raise InputError(f"{e} (--bindings {args.bindings})") from None
 
 
 def _cmd_plan(args: argparse.Namespace, console: Console) -> int:
     problem = _problem_from_args(args)
     config = _planner_config(args)
-    with console.status(f"planning ({config.algorithm}, defer={config.defer})..."):
+    limit = config.max_time * 1.5 + 10  # a stream implementation may never return
+    culprit = f"a stream of --bindings {args.bindings}" if args.bindings else "the planner"
+    late = PlannerError(
+        f"planning did not end within {limit:g} s (--max-time {config.max_time:g}): "
+        f"{culprit} did not return"
+    )
+    status = f"planning ({config.algorithm}, defer={config.defer})..."
+    with console.status(status), time_limit(limit, late):
         result = solve(problem, config)
     if args.json:
         sys.stdout.write(result.dumps() + "\n")
     else:
         _print_result(result, console, problem.spelling)
+    if result.status is PlanStatus.ERROR:
+        raise _planning_failed(result)
     return 0 if result.solved else 1
 
 
@@ -173,7 +172,9 @@ def _add_plan(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--streams", help="stream.pddl")
     p.add_argument("--bindings", help="MODULE:NAME of a mapping stream name -> implementation")
     p.add_argument("--example", help="a shipped example (see 'llmpas examples')")
-    p.add_argument("--size", type=int, help="size of the example (objects/blocks)")
+    p.add_argument(
+        "--size", type=bounded_int(1, MAX_EXAMPLE_SIZE), help="size of the example (objects/blocks)"
+    )
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     _add_planner_options(p)
     p.set_defaults(handler=_cmd_plan)
@@ -193,8 +194,14 @@ def _cmd_examples(args: argparse.Namespace, console: Console) -> int:
 
 
 def _cmd_bench_planning_time(args: argparse.Namespace, console: Console) -> int:
+    from llmpas.examples import EXAMPLES
     from llmpas.experiments.jobs import executor_from_args
     from llmpas.experiments.planning_time import BenchConfig, run_planning_time
+
+    unknown = [e for e in args.examples if e not in EXAMPLES]
+    if unknown:
+        known = ", ".join(sorted(EXAMPLES))
+        raise CliError(f"--examples: unknown example {unknown[0]!r}; examples: {known}")
 
     try:
         config = BenchConfig(
@@ -241,13 +248,17 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         "planning-time", help="initial planning time vs size, deferred vs computed"
     )
     pt.add_argument("--examples", nargs="+", default=["mobile", "tamp2d"])
-    pt.add_argument("--sizes", nargs="+", type=int, help="override the example's sizes")
-    pt.add_argument("--trials", type=int, default=5)
-    pt.add_argument("--max-time", type=float, default=60.0, help="seconds per planning run")
+    pt.add_argument(
+        "--sizes", nargs="+", type=bounded_int(1, MAX_EXAMPLE_SIZE), help="the example's sizes"
+    )
+    pt.add_argument("--trials", type=positive_int, default=5)
+    pt.add_argument(
+        "--max-time", type=positive_float, default=60.0, help="seconds per planning run"
+    )
     pt.add_argument("--out", default="results/planning-time")
     pt.add_argument(
         "--jobs",
-        type=int,
+        type=positive_int,
         default=1,
         help="parallel processes (> 1: timings are contended; results cached under OUT/cache)",
     )
@@ -257,11 +268,14 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         "perturbation",
         help="household episodes with tolerable disturbances: CSubBT vs flat execution, no LLM",
     )
-    pe.add_argument("--episodes", type=int, default=200)
-    pe.add_argument("--seed", type=int, default=0)
+    pe.add_argument("--episodes", type=positive_int, default=200)
+    pe.add_argument("--seed", type=seed, default=0)
     pe.add_argument("--out", default="results/perturbation")
     pe.add_argument(
-        "--jobs", type=int, default=1, help="parallel processes (results cached under OUT/cache)"
+        "--jobs",
+        type=positive_int,
+        default=1,
+        help="parallel processes (results cached under OUT/cache)",
     )
     add_executor_arguments(pe)
     pe.set_defaults(handler=_one_line_errors(_cmd_bench_perturbation))
@@ -306,15 +320,19 @@ def _add_bench_blocksworld(bsub: argparse._SubParsersAction[argparse.ArgumentPar
 
 
 def _one_line_errors(command: Handler) -> Handler:
-    """``command`` with bad values and LLM failures turned into one-line CLI errors."""
+    """``command`` with bad option values (``ValueError`` from a configuration) turned into
+    one-line usage errors; input, planner and LLM errors keep their own class."""
 
     def handler(args: argparse.Namespace, console: Console) -> int:
         from llmpas.experiments.jobs import JobsLost
-        from llmpas.reasoning.llm import LLMError
 
         try:
             return command(args, console)
-        except (ValueError, LLMError, JobsLost) as e:
+        except LlmpasError:
+            raise
+        except JobsLost as e:  # the sweep could not finish: what finished is cached
+            raise CliError(str(e), ExitCode.FAILED) from None
+        except ValueError as e:
             raise CliError(str(e)) from None
 
     return handler
@@ -323,16 +341,46 @@ def _one_line_errors(command: Handler) -> Handler:
 # ---------------------------------------------------------------------------- execute / bt
 
 
+def _scenario_file(name: str) -> Path:
+    """A shipped household scenario's file, or the given .toml (unknown names: usage)."""
+    from llmpas.worlds.household.run import scenario_path
+
+    try:
+        return scenario_path(name)
+    except FileNotFoundError as e:
+        raise CliError(str(e)) from None
+    except OSError as e:  # a name too long for a path, say
+        raise CliError(f"scenario {name!r}: {e.strerror or e}") from None
+
+
+@contextmanager
+def _naming(path: Path) -> Iterator[None]:
+    """Problem-language errors raised while the problem of the scenario ``path`` is built (its
+    goal names an unknown predicate, say) name the file."""
+    try:
+        yield
+    except LanguageError as e:
+        if str(e).startswith(str(path)):
+            raise
+        raise InputError(f"{path}: task.goal: {e}") from None
+
+
 def _run_household(args: argparse.Namespace, console: Console) -> Any:
     from llmpas.worlds.household.run import RunConfig, run_scenario
-    from llmpas.worlds.household.scenario import ScenarioError
+    from llmpas.worlds.household.scenario import load_scenario
 
     config = RunConfig(planner=_planner_config(args), seed=args.seed)
-    try:
-        with console.status(f"planning and executing {args.scenario} ..."):
-            return run_scenario(args.scenario, config)
-    except (ScenarioError, FileNotFoundError) as e:
-        raise CliError(str(e)) from None
+    path = _scenario_file(args.scenario)
+    scenario = load_scenario(path)
+    with console.status(f"planning and executing {args.scenario} ..."), _naming(path):
+        return run_scenario(scenario, config)
+
+
+def _planning_failed(result: PlanResult) -> CliError | PlannerError:
+    """The error for a plan that was not found: the planner's own failure, or none found."""
+    if result.status is PlanStatus.ERROR:
+        return PlannerError(f"planner: {result.message}")
+    return CliError(f"no plan: {result.status.value}: {result.message}", code=ExitCode.FAILED)
 
 
 def _cmd_execute(args: argparse.Namespace, console: Console) -> int:
@@ -340,8 +388,7 @@ def _cmd_execute(args: argparse.Namespace, console: Console) -> int:
 
     run = _run_household(args, console)
     if run.episode is None:
-        console.print(f"[bold red]planning failed[/]: {run.plan.status.value}: {run.plan.message}")
-        return 1
+        raise _planning_failed(run.plan)
     ep = run.episode
     if args.out:
         files = save_episode(ep, Path(args.out), specs=list(run.specs))
@@ -372,22 +419,21 @@ def _cmd_bt(args: argparse.Namespace, console: Console) -> int:
     from llmpas.execution.export import render_png, to_ascii, to_btcpp_files
     from llmpas.worlds.household.decomposition import build_specs
     from llmpas.worlds.household.problem import make_problem
-    from llmpas.worlds.household.run import belief_from, household_for, scenario_path
-    from llmpas.worlds.household.scenario import ScenarioError, load_scenario
+    from llmpas.worlds.household.run import belief_from, household_for
+    from llmpas.worlds.household.scenario import load_scenario
 
-    try:
-        scenario = load_scenario(scenario_path(args.scenario))
-    except (ScenarioError, FileNotFoundError) as e:
-        raise CliError(str(e)) from None
+    path = _scenario_file(args.scenario)
+    scenario = load_scenario(path)
     house = household_for(scenario)
     import numpy as np
 
-    problem = make_problem(
-        house, belief_from(house, scenario), scenario.goal, np.random.default_rng(args.seed)
-    )
+    with _naming(path):
+        problem = make_problem(
+            house, belief_from(house, scenario), scenario.goal, np.random.default_rng(args.seed)
+        )
     result = solve(problem, _planner_config(args))
     if result.plan is None:
-        raise CliError(f"no plan: {result.status.value}: {result.message}")
+        raise _planning_failed(result)
     specs = build_specs(house, problem, result.plan)
     if args.bt == "show":
         for spec in specs:
@@ -400,9 +446,8 @@ def _cmd_bt(args: argparse.Namespace, console: Console) -> int:
             console.print(f"wrote {len(specs)} PNG files to {out}")
         return 0
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     for name, text in to_btcpp_files(specs).items():
-        (out / name).write_text(text)
+        atomic_write(out / name, text)
     console.print(f"wrote BehaviorTree.CPP v4 XML of {len(specs)} subtrees to {out}")
     return 0
 
@@ -433,6 +478,15 @@ def _add_execute(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> No
 
 def _llm(spec: str, record: str | None) -> Any:
     """``oracle`` | ``replay:DIR`` | ``openai:MODEL[@BASE_URL]`` | ``llama-cpp[:PATH]``."""
+    try:
+        return _make_llm(spec, record)
+    except LlmpasError:
+        raise
+    except ValueError as e:
+        raise CliError(f"--llm {spec}: {e}") from None
+
+
+def _make_llm(spec: str, record: str | None) -> Any:
     from llmpas.reasoning.backends.llamacpp import LlamaCppBackend
     from llmpas.reasoning.backends.openai_http import OpenAIBackend
     from llmpas.reasoning.backends.replay import ReplayBackend
@@ -471,8 +525,22 @@ def _world(args: argparse.Namespace) -> str:
     return "pybullet" if args.scenario in PYBULLET_SCENARIOS else "household"
 
 
+def _import_quietly(module: str) -> None:
+    """Import ``module`` with stderr sent to /dev/null (pybullet prints its build date there)."""
+    import importlib
+
+    saved, devnull = os.dup(2), os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 2)
+        importlib.import_module(module)
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(devnull)
+
+
 def _cmd_run_pybullet(args: argparse.Namespace, console: Console) -> int:
-    from llmpas.reasoning.llm import LLMError
+    _import_quietly("pybullet")
     from llmpas.reasoning.methods import MethodConfig
     from llmpas.worlds.pybullet import cli as pb
     from llmpas.worlds.pybullet.run import scenarios
@@ -490,7 +558,9 @@ def _cmd_run_pybullet(args: argparse.Namespace, console: Console) -> int:
         task = scenarios()[args.scenario].goal
         _web_report(args, console, world="PyBullet: Husky + Franka Panda", task=task)
         return code
-    except (KeyError, ValueError, LLMError) as e:
+    except LlmpasError:
+        raise
+    except (KeyError, ValueError) as e:
         raise CliError(str(e)) from None
 
 
@@ -499,7 +569,7 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
     from llmpas.reasoning.methods import MethodConfig
     from llmpas.system import LoopConfig, run_loop, save_records
     from llmpas.worlds.household.run import RunConfig
-    from llmpas.worlds.household.scenario import ScenarioError
+    from llmpas.worlds.household.scenario import load_scenario
 
     if _world(args) == "pybullet":
         return _cmd_run_pybullet(args, console)
@@ -514,15 +584,20 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
             deadline=args.deadline,
             run=RunConfig(planner=_planner_config(args), seed=args.seed),
         )
-        llm = _llm(args.llm, args.record)
-        with console.status(escape(f"running {args.scenario} with {args.llm} ({args.method}) ...")):
-            result = run_loop(args.scenario, llm, config, records)
-    except (ValueError, ScenarioError, FileNotFoundError, LLMError) as e:
-        kept = f" (the rounds so far are in {args.out})" if args.out else ""
-        raise CliError(f"{e}{kept}") from None
+    except ValueError as e:
+        raise CliError(str(e)) from None
+    path = _scenario_file(args.scenario)
+    scenario = load_scenario(path)
+    llm = _llm(args.llm, args.record)
+    status = escape(f"running {args.scenario} with {args.llm} ({args.method}) ...")
+    kept = f" (the rounds so far are in {args.out})" if args.out else ""
+    try:
+        with console.status(status), _naming(path):
+            result = run_loop(scenario, llm, config, records)
+    except LLMError as e:
+        raise CliError(f"{e}{kept}", ExitCode.LLM) from None
     except KeyboardInterrupt:
-        kept = f"; the rounds so far are in {args.out}" if args.out else ""
-        raise CliError(f"interrupted{kept}") from None
+        raise CliError(f"interrupted{kept}", ExitCode.INTERRUPTED) from None
     for i, rnd in enumerate(result.rounds):
         ep = rnd.episode
         status = ep.status.value if ep else f"no plan ({rnd.plan.status.value})"
@@ -588,10 +663,10 @@ def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         choices=METHODS,
     )
     p.add_argument("--decoding", default="grammar", choices=("grammar", "schema", "none"))
-    p.add_argument("--rounds", type=int, default=3, help="LLM consultations at most")
+    p.add_argument("--rounds", type=positive_int, default=3, help="LLM consultations at most")
     p.add_argument(
         "--deadline",
-        type=_seconds,
+        type=positive_float,
         help="seconds for the whole loop: it stops cleanly between steps (status: deadline)",
     )
     p.add_argument("--record", help="record the LLM's answers into this cassette folder")
@@ -602,28 +677,18 @@ def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.set_defaults(handler=_cmd_run, seed=None)
 
 
-def _seconds(text: str) -> float:
-    """An argparse type: a positive, finite number of seconds."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number of seconds: {text!r}") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"must be a positive number of seconds, got {text!r}")
-    return value
-
-
 # --------------------------------------------------------------------------------- model
 
 
 def _cmd_model_install(args: argparse.Namespace, console: Console) -> int:
-    from llmpas.reasoning.llm import LLMError
-    from llmpas.reasoning.models import install_with_progress
+    from llmpas.reasoning.models import MODELS, install_with_progress
 
+    if args.name not in MODELS:
+        raise CliError(f"unknown model {args.name!r}; known models: {', '.join(sorted(MODELS))}")
     try:
         path = install_with_progress(args.name, args.cache)
-    except (LLMError, KeyError, OSError) as e:
-        raise CliError(str(e)) from None
+    except KeyError as e:  # an unknown model name (LLM and disk errors keep their class)
+        raise CliError(str(e.args[0] if e.args else e)) from None
     console.print(f"installed and verified: {path}")
     return 0
 
@@ -642,9 +707,22 @@ def _add_model(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
 # -------------------------------------------------------------------------------------- main
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (the CLI's usage errors)."""
+
+    def error(self, message: str) -> NoReturn:
+        raise UsageError(f"{self.prog}: {message} (see '{self.prog} --help')")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="llmpas", description=__doc__)
-    parser.add_argument("-v", "--verbose", action="count", default=0)
+    parser: argparse.ArgumentParser = _Parser(
+        prog="llmpas",
+        description=__doc__,
+        epilog=EXIT_CODES_HELP,
+    )
+    parser.add_argument(
+        "-v", "--verbose", action="count", default=0, help="more logging; tracebacks of errors"
+    )
     sub = parser.add_subparsers(dest="command", required=True)
     _add_plan(sub)
     ex = sub.add_parser("examples", help="list the shipped example problems")
@@ -657,23 +735,86 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    console = Console(stderr=False)
-    level = logging.WARNING - 10 * min(args.verbose, 2)
-    log_handler = RichHandler(console=Console(stderr=True))
-    log_handler.addFilter(RedactingFilter(env_secrets()))  # no API key in any log line
-    logging.basicConfig(level=level, format="%(message)s", handlers=[log_handler])
-    handler: Handler = args.handler
+# ------------------------------------------------------------------------------ errors
+
+
+OUTPUT_OPTIONS = ("out", "png", "record")  # folders a command writes: checked before it runs
+
+
+def check_output_folder(path: str, option: str) -> None:
+    """Refuse an output folder that cannot be written, before any work is done: it must be a
+    folder (or not exist yet below a folder) where a file can be created. Nothing is left."""
+    target = Path(path)
+    if target.exists() and not target.is_dir():
+        raise OutputError(f"{option} {path}: not a folder")
+    probe = target
+    while not probe.exists():
+        if probe.parent == probe:
+            break
+        probe = probe.parent
+    if not probe.is_dir():
+        raise OutputError(f"{option} {path}: {probe} is not a folder")
     try:
+        fd, tmp = tempfile.mkstemp(dir=probe, prefix=".llmpas-write-test.")
+    except OSError as e:
+        raise OutputError(f"{option} {path}: cannot write in {probe}: {e.strerror or e}") from None
+    os.close(fd)
+    os.unlink(tmp)
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    for name in OUTPUT_OPTIONS:
+        value = getattr(args, name, None)
+        if isinstance(value, str):
+            check_output_folder(value, "--" + name)
+
+
+def _classify(e: BaseException) -> tuple[ExitCode, str]:
+    """The exit status and the one-line message of an error that reached :func:`main`."""
+    from llmpas.reasoning.llm import LLMError
+
+    text = str(e)
+    if isinstance(e, LlmpasError):
+        return e.code, text or type(e).__name__
+    if isinstance(e, LLMError):
+        return ExitCode.LLM, f"LLM: {text}"
+    if isinstance(e, KeyboardInterrupt):
+        return ExitCode.INTERRUPTED, "interrupted"
+    if isinstance(e, OSError):
+        where = f"{e.filename}: " if e.filename else ""
+        return ExitCode.IO, f"{where}{e.strerror or text or type(e).__name__}"
+    if isinstance(e, MemoryError):
+        return ExitCode.INTERNAL, "out of memory (internal error; -v shows where)"
+    what = f"{type(e).__name__}: {text}" if text else type(e).__name__
+    return ExitCode.INTERNAL, f"internal error: {what} (run 'llmpas -v ...' for the traceback)"
+
+
+def _report(e: BaseException, verbose: int) -> int:
+    code, message = _classify(e)
+    secrets = env_secrets()
+    if verbose:
+        sys.stderr.write(redact("".join(traceback.format_exception(e)), secrets))
+    line = Text.assemble(("error:", "bold red"), " ", one_line(redact(message, secrets)))
+    Console(stderr=True, emoji=False).print(line, soft_wrap=True, highlight=False)
+    return int(code)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run one command; every error becomes one line on stderr and a documented exit status."""
+    verbose = 0
+    try:
+        args = build_parser().parse_args(argv)
+        verbose = args.verbose
+        console = Console(stderr=False)
+        level = logging.WARNING - 10 * min(args.verbose, 2)
+        log_handler = RichHandler(console=Console(stderr=True))
+        log_handler.addFilter(RedactingFilter(env_secrets()))  # no API key in any log line
+        logging.basicConfig(level=level, format="%(message)s", handlers=[log_handler])
+        _check_outputs(args)
+        handler: Handler = args.handler
         return handler(args, console)
-    except (CliError, LanguageError) as e:
-        # brackets (and :x:) in a message are text, not markup; secrets and control bytes never
-        line = escape(printable(redact(str(e), env_secrets()), keep_newlines=False))
-        Console(stderr=True, emoji=False).print(
-            f"[bold red]error:[/] {line}", highlight=False, soft_wrap=True
-        )
-        return 2
+    except (Exception, KeyboardInterrupt) as e:
+        return _report(e, verbose)
 
 
 if __name__ == "__main__":

@@ -213,14 +213,14 @@ def test_cli_runs_with_the_oracle(tmp_path: Path, capsys: pytest.CaptureFixture[
 
 
 def test_cli_errors_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["bench", "blocksworld", "--problems", str(DATA / "malformed")]) == 2
+    assert main(["bench", "blocksworld", "--problems", str(DATA / "malformed")]) == 3  # input
     err = capsys.readouterr().err
     assert "bad.pddl" in err and "never closed" in err
     assert main(["bench", "blocksworld", "--count", "0", "--out", str(tmp_path)]) == 2
     assert "count must be >= 1" in capsys.readouterr().err
     missing = tmp_path / "no-cassettes"
     args = ["bench", "blocksworld", "--llm", f"replay:{missing}", "--methods", "llm-ic"]
-    assert main([*args, "--count", "1", "--sizes", "3", "--out", str(tmp_path)]) == 2
+    assert main([*args, "--count", "1", "--sizes", "3", "--out", str(tmp_path)]) == 5  # LLM
     assert "no recorded response" in capsys.readouterr().err
 
 

@@ -284,7 +284,7 @@ def test_action_lookup_and_duplicates():
     assert d.action("GO").name == "go"
     with pytest.raises(ModelError, match="unknown action 'fly'"):
         d.action("fly")
-    with pytest.raises(ModelError, match=r"^d\.pddl: action 'go' is defined twice$"):
+    with pytest.raises(PddlSyntaxError, match=r"^d\.pddl:\d+:\d+: action 'go' is defined twice$"):
         parse_domain(domain_with("(:action go :effect (r)) (:action GO :effect (r))"), "d.pddl")
 
 

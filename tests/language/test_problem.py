@@ -22,6 +22,7 @@ from .texts import WILD_PROBLEM
 
 BLOCKS = parse_domain(
     """(define (domain blocks)
+  (:types block table)
   (:constants Table)
   (:predicates (Block ?b) (On ?b ?x) (Clear ?x) (AtPose ?b ?p))
   (:functions (Dist ?a ?b))

@@ -36,6 +36,7 @@ from typing import Any
 
 from rich.console import Console
 
+from llmpas.errors import UsageError
 from llmpas.experiments.jobs import (
     ExecutorSpec,
     Job,
@@ -567,8 +568,7 @@ def validate_command(args: argparse.Namespace, console: Console) -> int:
     from llmpas.experiments.suite import SuiteError, task_files, validate_folder
 
     if args.seeds < 0 or args.jobs < 1:
-        console.print("[bold red]error[/]: --seeds must be >= 0 and --jobs >= 1")
-        return 2
+        raise UsageError("--seeds must be >= 0 and --jobs >= 1")
     folder = Path(args.folder)
     config = LoopConfig(run=RunConfig(planner=PlannerConfig(max_time=args.max_time)))
     try:

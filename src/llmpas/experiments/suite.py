@@ -39,13 +39,14 @@ import enum
 import hashlib
 import logging
 import time
-import tomllib
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, cast
 
+from llmpas.errors import InputError
 from llmpas.execution.anomaly import AnomalyReport
+from llmpas.inputs import TOML_LIMIT, decode_text, parse_toml, read_bytes
 from llmpas.language.errors import PddlSyntaxError
 from llmpas.language.logic import Atom, Not
 from llmpas.language.sexpr import SExpr, SList, Sym, parse_all
@@ -103,7 +104,7 @@ SUCCESS_PREDICATES: Mapping[str, int] = {
 }
 
 
-class SuiteError(ValueError):
+class SuiteError(InputError):
     """A task file that cannot be loaded: ``file: field: message`` on one line."""
 
 
@@ -179,18 +180,18 @@ def load_task(path: str | Path) -> SuiteTask:
     """Read and check one task file (:class:`SuiteError` names the file and the field)."""
     source = str(path)
     try:
-        raw = Path(path).read_bytes()
-    except OSError as e:
-        raise SuiteError(f"{source}: cannot read: {e.strerror or e}") from None
+        raw = read_bytes(path, "task file", TOML_LIMIT)
+    except InputError as e:
+        raise SuiteError(str(e)) from None
     return parse_task(raw, source)
 
 
 def parse_task(raw: bytes, source: str) -> SuiteTask:
     """Check one task file's content (read elsewhere, e.g. by a cluster's driver)."""
     try:
-        data = tomllib.loads(raw.decode("utf-8"))
-    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
-        raise SuiteError(f"{source}: invalid TOML: {e}") from None
+        data = parse_toml(decode_text(raw, source, "task file"), source)
+    except InputError as e:
+        raise SuiteError(str(e)) from None
     return task_from_dict(data, source=source, digest=hashlib.sha256(raw).hexdigest())
 
 

@@ -8,12 +8,13 @@ requirement and predicate, so Fast Downward and the ``pddl`` package both read i
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
+from llmpas.inputs import PDDL_LIMIT, read_text
 from llmpas.language.errors import ModelError
 from llmpas.language.logic import (
     TRUE,
@@ -219,22 +220,42 @@ def _has_increase(effects: Iterable[EffectItem]) -> bool:
 
 def read_domain(path: str | Path) -> Domain:
     path = Path(path)
-    return parse_domain(path.read_text(encoding="utf-8"), str(path))
+    return parse_domain(read_text(path, "PDDL domain file", PDDL_LIMIT), str(path))
 
 
 def parse_domain(text: str, filename: str = "<domain>") -> Domain:
     _, name, sections = parse_definition(text, "domain", filename)
     reader = _DomainReader(filename)
     reader.name = name
-    for section in sections:
-        reader.section(expect_list(section, "a domain section"))
+    lists = [expect_list(section, "a domain section") for section in sections]
+    for s in sorted(lists, key=lambda s: s.head() != ":types"):  # types first: others use them
+        reader.section(s)
     return reader.build()
 
 
-def parse_typed_list(items: Iterable[SExpr], what: str) -> tuple[Param, ...]:
-    """``?a ?b - t ?c`` -> (Param(?a, t), Param(?b, t), Param(?c, object))."""
-    out: list[Param] = []
+def parse_typed_list(
+    items: Iterable[SExpr],
+    what: str,
+    types: Collection[str] | None = None,
+    unique: bool = True,
+) -> tuple[Param, ...]:
+    """``?a ?b - t ?c`` -> (Param(?a, t), Param(?b, t), Param(?c, object)).
+
+    ``types``: the declared types (``object`` is always one); a name given twice is an error
+    unless ``unique`` is false."""
+    return tuple(p for p, _ in typed_names(items, what, types, unique))
+
+
+def typed_names(
+    items: Iterable[SExpr],
+    what: str,
+    types: Collection[str] | None = None,
+    unique: bool = True,
+) -> list[tuple[Param, Sym]]:
+    """:func:`parse_typed_list` with the symbol of each name (for messages naming its place)."""
+    out: list[tuple[Param, Sym]] = []
     pending: list[Sym] = []
+    seen: set[str] = set()
     seq = list(items)
     i = 0
     while i < len(seq):
@@ -245,13 +266,22 @@ def parse_typed_list(items: Iterable[SExpr], what: str) -> tuple[Param, ...]:
             t = seq[i + 1]
             if isinstance(t, SList):
                 raise t.pos.error(f"'(either ...)' types are not supported in {what}")
-            out += [Param(p.text, t.text) for p in pending]
+            if types is not None and t.text != "object" and t.text not in types:
+                declared = ", ".join(sorted(set(types) - {"object"})) or "none"
+                raise t.pos.error(
+                    f"type '{t.text}' in {what} is not declared in the domain's :types "
+                    f"(declared: {declared})"
+                )
+            out += [(Param(p.text, t.text), p) for p in pending]
             pending, i = [], i + 2
             continue
+        if unique and s.text in seen:
+            raise s.pos.error(f"'{s.text}' is named twice in {what}")
+        seen.add(s.text)
         pending.append(s)
         i += 1
-    out += [Param(p.text) for p in pending]
-    return tuple(out)
+    out += [(Param(p.text), p) for p in pending]
+    return out
 
 
 UNSUPPORTED_REQUIREMENTS = frozenset(
@@ -278,6 +308,11 @@ class _DomainReader:
     undeclared: dict[str, tuple[int, Pos]] = field(default_factory=dict)
     derived_names: set[str] = field(default_factory=set)
 
+    @property
+    def declared_types(self) -> frozenset[str]:
+        """Every type of ``:types``, its parents included, and ``object``."""
+        return frozenset(self.types) | frozenset(self.types.values()) | {"object"}
+
     def section(self, s: SList) -> None:
         key = s.head()
         body = s.items[1:]
@@ -290,13 +325,19 @@ class _DomainReader:
                     )
             self.requirements = tuple(r.text for r in reqs)
         elif key == ":types":
-            for p in parse_typed_list(body, ":types"):
-                self.types[p.name] = p.type
+            self._types(body)
         elif key == ":constants":
-            self.constants += parse_typed_list(body, ":constants")
+            before = {c.name for c in self.constants}
+            for c, sym in typed_names(body, ":constants", self.declared_types):
+                if c.name in before:
+                    raise sym.pos.error(f"constant '{c.name}' is declared twice")
+                self.constants += (c,)
         elif key == ":predicates":
             for x in body:
-                sig = _signature(expect_list(x, "a predicate declaration"))
+                decl = expect_list(x, "a predicate declaration")
+                sig = _signature(decl, self.declared_types)
+                if sig.name in self.predicates:
+                    raise decl.pos.error(f"predicate '{sig.name}' is declared twice")
                 self.predicates[sig.name] = sig
         elif key == ":functions":
             self._functions(body)
@@ -304,7 +345,11 @@ class _DomainReader:
             if len(body) != 2:
                 raise s.pos.error("expected '(:derived (NAME ?x ...) FORMULA)'")
             self.derived.append(
-                (_signature(expect_list(body[0], "a derived head")), body[1], s.pos)
+                (
+                    _signature(expect_list(body[0], "a derived head"), self.declared_types),
+                    body[1],
+                    s.pos,
+                )
             )
         elif key is None:
             raise s.pos.error("expected a domain section such as '(:action ...)', found '()'")
@@ -317,6 +362,19 @@ class _DomainReader:
         else:
             raise s.pos.error(f"unknown domain section '{key}'")
 
+    def _types(self, body: tuple[SExpr, ...]) -> None:
+        for p, sym in typed_names(body, ":types"):
+            if p.name == "object" and p.type == "object":
+                continue
+            if p.name in self.types:
+                raise sym.pos.error(f"type '{p.name}' is declared twice")
+            self.types[p.name] = p.type
+            chain = [p.name]
+            while chain[-1] in self.types and chain[-1] != "object":
+                chain.append(self.types[chain[-1]])
+                if chain[-1] == p.name:
+                    raise sym.pos.error(f"type '{p.name}' is its own ancestor: {' - '.join(chain)}")
+
     def _functions(self, body: tuple[SExpr, ...]) -> None:
         items = list(body)
         i = 0
@@ -325,7 +383,7 @@ class _DomainReader:
             if isinstance(x, Sym) and x.text == "-":
                 i += 2  # skip "- number"
                 continue
-            sig = _signature(expect_list(x, "a function declaration"))
+            sig = _signature(expect_list(x, "a function declaration"), self.declared_types)
             self.functions[sig.name] = sig
             i += 1
 
@@ -343,7 +401,12 @@ class _DomainReader:
             Derived(sig, fr.formula(body, {p.name for p in sig.params}))
             for sig, body, _ in self.derived
         )
-        actions = tuple(self._action(s, fr) for s, _ in self.actions)
+        actions: list[Action] = []
+        for s, pos in self.actions:
+            action = self._action(s, fr)
+            if any(a.name == action.name for a in actions):
+                raise pos.error(f"action '{action.name}' is defined twice")
+            actions.append(action)
         return Domain(
             name=self.name,
             requirements=self.requirements,
@@ -352,7 +415,7 @@ class _DomainReader:
             predicates=self.predicates,
             functions=self.functions,
             derived=derived,
-            actions=actions,
+            actions=tuple(actions),
             undeclared=self.undeclared,
             filename=self.filename,
         )
@@ -361,6 +424,8 @@ class _DomainReader:
         if len(s) < 2:
             raise s.pos.error("expected '(:action NAME :parameters (...) ...)'")
         name = expect_sym(s[1], "an action name").text
+        if name.startswith(":"):
+            raise s[1].pos.error(f"expected an action name, found '{name}'")
         params: tuple[Param, ...] = ()
         pre: Formula = TRUE
         effects: tuple[EffectItem, ...] = ()
@@ -373,11 +438,11 @@ class _DomainReader:
         for key, vals in sections:
             if key.text == ":parameters":
                 params = parse_typed_list(
-                    expect_list(_single(key, vals), "parameters"), "parameters"
+                    expect_list(_single(key, vals), "parameters"),
+                    f"the parameters of action '{name}'",
+                    self.declared_types,
                 )
         scope = {p.name for p in params}
-        if len(scope) != len(params):
-            raise s.pos.error(f"action '{name}' names a parameter twice")
         for key, vals in sections:
             if key.text == ":precondition":
                 v = _single(key, vals)
@@ -400,11 +465,11 @@ def _single(key: Sym, vals: tuple[SExpr, ...]) -> SExpr:
     return vals[0]
 
 
-def _signature(s: SList) -> Signature:
+def _signature(s: SList, types: Collection[str] | None = None) -> Signature:
     if not s.items:
         raise s.pos.error("empty declaration '()'")
     name = expect_sym(s[0], "a name").text
-    return Signature(name, parse_typed_list(s.items[1:], f"'{name}'"))
+    return Signature(name, parse_typed_list(s.items[1:], f"'{name}'", types))
 
 
 class _FormulaReader:
@@ -456,7 +521,7 @@ class _FormulaReader:
         if head in ("exists", "forall"):
             if len(args) != 2:
                 raise s.pos.error(f"'{head}' takes a variable list and a formula")
-            ps = parse_typed_list(expect_list(args[0], "variables"), head)
+            ps = parse_typed_list(expect_list(args[0], "variables"), head, self.r.declared_types)
             body = self.formula(args[1], scope | {p.name for p in ps})
             return Exists(ps, body) if head == "exists" else Forall(ps, body)
         return self.atom(s, scope)
@@ -481,7 +546,9 @@ class _FormulaReader:
             return (When(cond, self.effects(args[1], scope)),)
         if head == "forall":
             _arity(s, 2, "'(forall (VARIABLES) EFFECT)'")
-            ps = parse_typed_list(expect_list(args[0], "variables"), "forall")
+            ps = parse_typed_list(
+                expect_list(args[0], "variables"), "forall", self.r.declared_types
+            )
             return (ForallEffect(ps, self.effects(args[1], scope | {p.name for p in ps})),)
         if head == "increase":
             return (self._increase(s, scope),)
@@ -518,6 +585,8 @@ class _FormulaReader:
                 raise e.pos.error(
                     f"expected a number or a function term, found '{e.text}'"
                 ) from None
+        if not e.items:
+            raise e.pos.error("expected a number or a function term, found '()'")
         name = expect_sym(e[0], "a function name").text
         args = tuple(expect_sym(a, "an argument").text for a in e.items[1:])
         for a in args:
@@ -539,6 +608,7 @@ def reader_for_formulas(domain: Domain) -> _FormulaReader:
     r.predicates = dict(domain.predicates)
     r.undeclared = dict(domain.undeclared)
     r.functions = dict(domain.functions)
+    r.types = dict(domain.types)
     return _FormulaReader(r)
 
 
@@ -551,4 +621,5 @@ __all__ = [
     "parse_typed_list",
     "read_domain",
     "reader_for_formulas",
+    "typed_names",
 ]

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from llmpas.errors import InputError
 
-class LanguageError(ValueError):
+
+class LanguageError(InputError):
     """Base class of every error raised while reading or checking a problem."""
 
 

@@ -11,8 +11,9 @@ from typing import Any
 
 import numpy as np
 
+from llmpas.inputs import PDDL_LIMIT, read_text
 from llmpas.language.bindings import BoundFunction, BoundStream, StreamInfo, bind
-from llmpas.language.domain import Domain, parse_typed_list, read_domain, reader_for_formulas
+from llmpas.language.domain import Domain, read_domain, reader_for_formulas, typed_names
 from llmpas.language.errors import ModelError
 from llmpas.language.logic import (
     And,
@@ -34,7 +35,6 @@ from llmpas.language.logic import (
 from llmpas.language.sexpr import (
     SExpr,
     SList,
-    Sym,
     expect_list,
     expect_sym,
     parse_all,
@@ -408,10 +408,7 @@ def parse_problem_text(text: str, domain: Domain, filename: str = "<problem>") -
             if dom_name != domain.name:
                 raise s.pos.error(f"problem is for domain '{dom_name}', not '{domain.name}'")
         elif key == ":objects":
-            objects.update({p.name: p.type for p in parse_typed_list(s.items[1:], ":objects")})
-            for x in s.items[1:]:
-                if isinstance(x, Sym):
-                    spelling.setdefault(x.text, x.written)
+            _read_objects(s, domain, objects, spelling)
         elif key == ":init":
             _read_init(s.items[1:], init, costs, domain)
         elif key == ":goal":
@@ -423,6 +420,22 @@ def parse_problem_text(text: str, domain: Domain, filename: str = "<problem>") -
     if goal is None:
         raise root.pos.error("problem has no ':goal'")
     return ProblemFile(name, dom_name, objects, tuple(init), costs, goal, spelling)
+
+
+def _read_objects(
+    s: SList, domain: Domain, objects: dict[str, str], spelling: dict[str, str]
+) -> None:
+    """``(:objects a b - t ...)``: types declared in the domain, every name once; each
+    name's spelling as first written."""
+    types = frozenset(domain.types) | frozenset(domain.types.values()) | {"object"}
+    constants = {c.name for c in domain.constants}
+    for p, sym in typed_names(s.items[1:], ":objects", types):
+        if p.name in objects:
+            raise sym.pos.error(f"object '{p.name}' is declared twice")
+        if p.name in constants:
+            raise sym.pos.error(f"object '{p.name}' is already a constant of the domain")
+        objects[p.name] = p.type
+        spelling.setdefault(sym.text, sym.written)
 
 
 def _read_init(
@@ -497,7 +510,8 @@ def read_problem(
     else:
         spec = read_streams(streams)
     path = Path(problem)
-    pf = parse_problem_text(path.read_text(encoding="utf-8"), dom, str(path))
+    text = read_text(path, "PDDL problem file", PDDL_LIMIT)
+    pf = parse_problem_text(text, dom, str(path))
     bs, bf = bind(spec, implementations or {}, info)
     given = {str(k).lower(): v for k, v in (values or {}).items()}
     unknown = sorted(given.keys() - pf.objects.keys())

@@ -6,13 +6,14 @@ starts a comment that runs to the end of the line, wherever it stands.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 from llmpas.language.errors import PddlSyntaxError
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Pos:
     filename: str
     line: int
@@ -22,7 +23,7 @@ class Pos:
         return PddlSyntaxError(self.filename, self.line, self.col, message)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Sym:
     """An atom of the text: a name, a ``?variable``, a ``:keyword`` or a number."""
 
@@ -38,7 +39,7 @@ class Sym:
         return self.raw or self.text
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class SList:
     """A parenthesised list."""
 
@@ -64,26 +65,18 @@ class SList:
 SExpr = Sym | SList
 
 
+# a newline | other whitespace | a comment | a parenthesis | an atom
+_TOKEN = re.compile(r"(\n)|[^\S\n]+|;[^\n]*|([()])|([^\s();]+)")
+MAX_DEPTH = 100  # nesting levels of parentheses: deeper text is refused as it is read
+
+
 def _tokens(text: str, filename: str) -> Iterator[tuple[str, Pos]]:
-    line, col, i, n = 1, 1, 0, len(text)
-    while i < n:
-        c = text[i]
-        if c == "\n":
-            line, col, i = line + 1, 1, i + 1
-        elif c.isspace():
-            col, i = col + 1, i + 1
-        elif c == ";":
-            while i < n and text[i] != "\n":
-                i += 1
-        elif c in "()":
-            yield c, Pos(filename, line, col)
-            col, i = col + 1, i + 1
-        else:
-            start = i
-            while i < n and not text[i].isspace() and text[i] not in "();":
-                i += 1
-            yield text[start:i], Pos(filename, line, col)
-            col += i - start
+    line, line_start = 1, 0
+    for m in _TOKEN.finditer(text):
+        if m.group(1):
+            line, line_start = line + 1, m.end()
+        elif m.lastindex:
+            yield m.group(m.lastindex), Pos(filename, line, m.start() - line_start + 1)
 
 
 def parse_all(text: str, filename: str = "<string>") -> tuple[SExpr, ...]:
@@ -92,6 +85,8 @@ def parse_all(text: str, filename: str = "<string>") -> tuple[SExpr, ...]:
     top: list[SExpr] = []
     for tok, pos in _tokens(text, filename):
         if tok == "(":
+            if len(stack) >= MAX_DEPTH:
+                raise pos.error(f"parentheses nested deeper than {MAX_DEPTH} levels")
             stack.append((pos, []))
         elif tok == ")":
             if not stack:
@@ -112,11 +107,11 @@ def parse_one(text: str, filename: str = "<string>") -> SList:
     exprs = parse_all(text, filename)
     if not exprs:
         raise Pos(filename, 1, 1).error("empty file: expected '(define ...)'")
-    if len(exprs) > 1:
-        raise exprs[1].pos.error("unexpected text after the end of the definition")
     first = exprs[0]
     if not isinstance(first, SList):
         raise first.pos.error(f"expected '(define ...)', found '{first.text}'")
+    if len(exprs) > 1:
+        raise exprs[1].pos.error("unexpected text after the end of the definition")
     return first
 
 

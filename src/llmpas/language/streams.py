@@ -24,6 +24,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from llmpas.inputs import PDDL_LIMIT, read_text
 from llmpas.language.errors import ModelError
 from llmpas.language.logic import Atom, conjuncts
 from llmpas.language.sexpr import (
@@ -146,7 +147,7 @@ EMPTY_STREAMS = StreamSpec("empty")
 
 def read_streams(path: str | Path) -> StreamSpec:
     path = Path(path)
-    return parse_streams(path.read_text(encoding="utf-8"), str(path))
+    return parse_streams(read_text(path, "PDDL stream file", PDDL_LIMIT), str(path))
 
 
 def parse_streams(text: str, filename: str = "<stream>") -> StreamSpec:
@@ -215,6 +216,8 @@ def _stream(s: SList, rule: str = "") -> StreamSchema:
         raise s.pos.error("expected '(:stream NAME :inputs ... )'")
     else:
         name = expect_sym(s[1], "a stream name").text
+        if name.startswith(":"):
+            raise s[1].pos.error(f"expected a stream name, found '{name}'")
         items, what = s.items[2:], f"stream '{name}'"
     fields: dict[str, tuple[Sym, SExpr]] = {}
     for key, vals in keyword_sections(items, what):

@@ -16,10 +16,11 @@ from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
 
+from llmpas import inputs
+from llmpas.errors import InputError
 from llmpas.examples._files import read_text
 from llmpas.examples.blocksworld import PACKAGE, problem_text
 from llmpas.language.domain import Domain, parse_domain
-from llmpas.language.errors import LanguageError
 from llmpas.language.logic import Atom, Not, conjuncts
 from llmpas.language.problem import Problem, parse_problem_text
 from llmpas.language.streams import EMPTY_STREAMS
@@ -33,7 +34,7 @@ log = logging.getLogger(__name__)
 OPTIMAL_SEARCH = "astar(lmcut())"
 
 
-class TaskError(ValueError):
+class TaskError(InputError):
     """A problem file that cannot be used: one line naming the file."""
 
 
@@ -117,9 +118,9 @@ def read_domain_file(path: str | Path) -> tuple[str, str]:
     naming the file when it cannot be read or is not such a domain."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = inputs.read_text(path, "PDDL domain file", inputs.PDDL_LIMIT)
         _domain(text, str(path))
-    except (LanguageError, RolesError, OSError, UnicodeDecodeError) as err:
+    except (InputError, RolesError, OSError) as err:
         raise TaskError(_located(err, path)) from None
     return text, str(path)
 
@@ -144,10 +145,10 @@ def read_tasks(folder: str | Path, domain_file: str | Path | None = None) -> lis
     tasks = []
     for path in files:
         try:
-            text = path.read_text(encoding="utf-8")
+            text = inputs.read_text(path, "PDDL problem file", inputs.PDDL_LIMIT)
             task = Task(path.stem, 1, str(path), text, None, dom_text, dom_source)
             problem = task.problem()
-        except (LanguageError, OSError, UnicodeDecodeError) as err:
+        except (InputError, OSError) as err:
             raise TaskError(_located(err, path)) from None
         if not problem.objects:
             raise TaskError(f"{path}: the problem has no blocks (:objects is empty)")

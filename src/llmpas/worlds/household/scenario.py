@@ -86,13 +86,14 @@ are 0-based. A scenario is either fully loaded or not at all.
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
+from llmpas.errors import InputError
+from llmpas.inputs import read_toml
 from llmpas.language.errors import PddlSyntaxError
 from llmpas.language.sexpr import SList, Sym, parse_all
 from llmpas.worlds.household.layout import Layout, ObjectSpec, default_objects, kitchen
@@ -117,7 +118,7 @@ MAX_NUDGE = 0.1
 SCENARIO_DIR = Path(__file__).with_name("scenarios")
 
 
-class ScenarioError(ValueError):
+class ScenarioError(InputError):
     """A scenario file that cannot be loaded: ``file: field: message`` on one line."""
 
 
@@ -310,12 +311,9 @@ def load_scenario(
     """Read and check a scenario file."""
     source = str(path)
     try:
-        with open(path, "rb") as f:
-            data = tomllib.load(f)
-    except OSError as e:
-        raise ScenarioError(f"{source}: cannot read: {e.strerror or e}") from None
-    except tomllib.TOMLDecodeError as e:
-        raise ScenarioError(f"{source}: invalid TOML: {e}") from None
+        data = read_toml(path, "scenario file")
+    except InputError as e:
+        raise ScenarioError(str(e)) from None
     return Scenario.from_dict(data, source=source, layout=layout, catalogue=catalogue)
 
 

@@ -1,0 +1,5 @@
+# expect: 3 calling STREAMS() called sys.exit(3)
+import sys
+
+def STREAMS():
+    sys.exit(3)

@@ -1,0 +1,3 @@
+# expect: 3 calling STREAMS() raised TypeError
+def STREAMS(robot):
+    return {}

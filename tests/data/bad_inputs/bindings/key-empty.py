@@ -1,0 +1,2 @@
+# expect: 3 key '' is not a stream name
+STREAMS = {'': print}

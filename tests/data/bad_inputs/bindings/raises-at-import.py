@@ -1,0 +1,3 @@
+# expect: 3 :3: running it raised ValueError: no robot attached
+x = 1
+raise ValueError('no robot attached')

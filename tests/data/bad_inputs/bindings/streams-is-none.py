@@ -1,0 +1,2 @@
+# expect: 3 STREAMS is NoneType, not a mapping
+STREAMS = None

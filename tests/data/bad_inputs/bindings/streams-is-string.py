@@ -1,0 +1,2 @@
+# expect: 3 STREAMS is str, not a mapping
+STREAMS = 'reach'

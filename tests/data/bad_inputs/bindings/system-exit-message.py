@@ -1,0 +1,2 @@
+# expect: 3 running it called sys.exit('bye')
+raise SystemExit('bye')

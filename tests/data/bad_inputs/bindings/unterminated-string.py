@@ -1,0 +1,2 @@
+# expect: 3 :2:
+STREAMS = {'reach: 1}

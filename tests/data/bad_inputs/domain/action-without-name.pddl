@@ -1,0 +1,18 @@
+; expect: 3 :11:5: expected an action name, found ':precondition'
+(define (domain place1d)
+  (:requirements :strips :equality)
+  (:predicates (Block ?b) (Region ?r) (Pose ?b ?p) (AtPose ?b ?p) (Contained ?b ?p ?r)
+               (HandEmpty) (Holding ?b) (CFree ?b1 ?p1 ?b2 ?p2)
+               (Conf ?q) (AtConf ?q) (Reach ?b ?p ?q))
+  (:derived (In ?b ?r) (exists (?p) (and (Contained ?b ?p ?r) (AtPose ?b ?p))))
+  (:derived (Unsafe ?b ?p) (exists (?b2 ?p2) (and (Pose ?b2 ?p2) (AtPose ?b2 ?p2)
+        (not (= ?b ?b2)) (not (CFree ?b ?p ?b2 ?p2)))))
+  (:action
+    :precondition (and (Conf ?q1) (Conf ?q2) (AtConf ?q1))
+    :effect (and (AtConf ?q2) (not (AtConf ?q1))))
+  (:action pick :parameters (?b ?p ?q)
+    :precondition (and (Pose ?b ?p) (AtPose ?b ?p) (HandEmpty) (Reach ?b ?p ?q) (AtConf ?q))
+    :effect (and (Holding ?b) (not (AtPose ?b ?p)) (not (HandEmpty))))
+  (:action place :parameters (?b ?p ?q)
+    :precondition (and (Pose ?b ?p) (Holding ?b) (not (Unsafe ?b ?p)) (Reach ?b ?p ?q) (AtConf ?q))
+    :effect (and (AtPose ?b ?p) (HandEmpty) (not (Holding ?b)))))

@@ -1,0 +1,1 @@
+; expect: 3 empty file

@@ -1,0 +1,3 @@
+; expect: 3 empty file
+; nothing here
+;; (define (domain x))

@@ -1,0 +1,3 @@
+; expect: 3 :2:1: expected '(define ...)'
+import os
+os.system('echo pwned')

@@ -1,0 +1,8 @@
+; expect: 3 :7:34: ':inputs' given twice in stream 'reach'
+(define (stream place1d)
+  (:stream sample-pose :inputs (?b ?r) :domain (and (Block ?b) (Region ?r))
+    :outputs (?p) :certified (and (Pose ?b ?p) (Contained ?b ?p ?r)))
+  (:stream test-cfree :inputs (?b1 ?p1 ?b2 ?p2) :domain (and (Pose ?b1 ?p1) (Pose ?b2 ?p2))
+    :certified (CFree ?b1 ?p1 ?b2 ?p2))
+  (:stream reach :inputs (?b ?p) :inputs (?b) :domain (Pose ?b ?p)
+    :outputs (?q) :certified (and (Conf ?q) (Reach ?b ?p ?q))))

@@ -1,0 +1,8 @@
+; expect: 3 a variable is both input and output
+(define (stream place1d)
+  (:stream sample-pose :inputs (?b ?r) :domain (and (Block ?b) (Region ?r))
+    :outputs (?p) :certified (and (Pose ?b ?p) (Contained ?b ?p ?r)))
+  (:stream test-cfree :inputs (?b1 ?p1 ?b2 ?p2) :domain (and (Pose ?b1 ?p1) (Pose ?b2 ?p2))
+    :certified (CFree ?b1 ?p1 ?b2 ?p2))
+  (:stream reach :inputs (?b ?p) :domain (Pose ?b ?p)
+    :outputs (?p) :certified (and (Conf ?p) (Reach ?b ?p ?q))))
