@@ -19,6 +19,8 @@ from pathlib import Path
 
 import pytest
 
+from llmpas.errors import ExitCode
+
 from .llm_server import ERROR_500, Reply, completion_body, echo_authorization, serve
 
 SECRET = "sk-hostile-TEST-KEY-0123456789abcdefXYZ"
@@ -135,7 +137,7 @@ def test_hostile_endpoint_through_llmpas_run(case: str, tmp_path: Path) -> None:
     assert not list(out.glob(".*.tmp"))  # no half-written file
 
     if case in TRANSPORT_ERRORS:
-        assert proc.returncode == 2
+        assert proc.returncode == ExitCode.LLM
         [line] = [x for x in proc.stderr.splitlines() if x.startswith("error:")]  # one line
         assert f"openai:fake-model at 127.0.0.1:{port}" in line, proc.stderr
         assert record["status"] == "llm-error" and f"127.0.0.1:{port}" in record["error"]

@@ -60,7 +60,7 @@ def test_a_missing_cost_value_is_one_line_at_load(
     args = [FILES[0], str(problem), "--streams", str(DATA / "stream.pddl")]
     code = main(["plan", *args, "--bindings", f"{DATA / 'streams.py'}:STREAMS"])
     err = capsys.readouterr()
-    assert code == 2
+    assert code == 3  # an input error
     message = (err.err + err.out).strip()
     assert "no value of 'cost' is given" in message
     assert message.count("\n") == 0, message
