@@ -25,6 +25,7 @@ import statistics
 import time
 from collections.abc import Iterable, Sequence
 from dataclasses import asdict, dataclass, field, fields
+from importlib.resources import files
 from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
@@ -92,6 +93,7 @@ class Trial:
     iterations: int
     plan_length: int
     validation: str  # "ok", or why the plan (or the run) failed
+    check_cpu: float = 0.0  # CPU seconds of the validation (deferred streams evaluated there)
     jobs: int = 1  # trials running in parallel while this one was timed
 
     @property
@@ -129,7 +131,9 @@ def measure(p: Payload) -> dict[str, Any]:
     result = solve(problem, planner_config(p.mode, p.trial, p.max_time))
     cpu, wall = _cpu() - cpu0, time.perf_counter() - wall0
     plan = result.plan
+    cpu1 = _cpu()
     check = validate(world, problem, plan) if plan is not None else None
+    check_cpu = _cpu() - cpu1
     s = result.stats
     return {
         **asdict(p),
@@ -144,6 +148,7 @@ def measure(p: Payload) -> dict[str, Any]:
         "iterations": s.iterations,
         "plan_length": len(plan) if plan is not None else 0,
         "validation": check.message if check else result.message[:300],
+        "check_cpu": check_cpu,
     }
 
 
@@ -232,12 +237,27 @@ class Report:
     files: tuple[Path, ...] = field(default_factory=tuple)
 
 
+def code_fingerprint() -> str:
+    """A hash of the code a trial's result depends on: the domain package (PDDL files and
+    streams) and the planner; a changed file never reuses a cached result."""
+    texts = []
+    for package in ("llmpas.examples.tamp2d_pds", "llmpas.planning", "llmpas.language"):
+        root = files(package)
+        texts += [
+            (package, f.name, f.read_text(encoding="utf-8"))
+            for f in sorted(root.iterdir(), key=lambda f: f.name)
+            if f.name.endswith((".py", ".pddl"))
+        ]
+    return fingerprint(texts)
+
+
 def jobs_for(config: TampBenchConfig, size: int, combos: Iterable[tuple[str, str]]) -> list[Job]:
     out = []
+    code = code_fingerprint()
     for family, mode in combos:
         for trial in range(config.trials):
             settings = asdict(planner_config(mode, trial, config.max_time))
-            digest = fingerprint([family, size, mode, trial, settings, config.memory_mb])
+            digest = fingerprint([family, size, mode, trial, settings, config.memory_mb, code])
             key = f"{family}/n{size}/{mode}/trial{trial}/{digest}"
             payload = Payload(
                 family, size, mode, trial, config.max_time, config.memory_mb, config.jobs
@@ -394,18 +414,10 @@ def plot(trials: Sequence[Trial], rows: Sequence[Row], config: TampBenchConfig, 
                 color=colors[mode],
                 label=f"llmpas, {label} (median)",
             )
-        ref = [(n, v) for n, v in sorted(REFERENCE.get(fam, {}).items()) if v is not None]
-        if ref:
-            ax.plot(
-                [n for n, _ in ref],
-                [v for _, v in ref],
-                "--s",
-                color="gray",
-                ms=4,
-                label=REFERENCE_LABEL.replace(", not", ",\nnot"),
-            )
+        _plot_reference(ax, fam, config.max_time)
         ax.axhline(config.max_time, color="gray", ls=":", lw=1)
         ax.set_yscale("log")
+        ax.set_xticks(sorted(set(config.sizes) | set(REFERENCE.get(fam, {}))))
         ax.set_xlabel("N (blocks)")
         ax.set_ylabel("planning CPU time (s)")
         ax.set_title(f"{fam}: x = unsolved or invalid within {config.max_time:g} s")
@@ -414,6 +426,27 @@ def plot(trials: Sequence[Trial], rows: Sequence[Row], config: TampBenchConfig, 
     fig.tight_layout()
     save_figure(fig, path)
     plt.close(fig)
+
+
+def _plot_reference(ax: Any, family: str, max_time: float) -> None:
+    """PDDLStream's figures: a dashed gray line, gray crosses where it solved nothing."""
+    ref = sorted(REFERENCE.get(family, {}).items())
+    solved = [(n, v) for n, v in ref if v is not None]
+    label = REFERENCE_LABEL.replace(", not", ",\nnot")
+    if solved:
+        ax.plot(
+            [n for n, _ in solved], [v for _, v in solved], "--s", color="gray", ms=4, label=label
+        )
+    unsolved = [n for n, v in ref if v is None]
+    if unsolved:
+        ax.scatter(
+            unsolved,
+            [max_time] * len(unsolved),
+            marker="x",
+            s=30,
+            color="gray",
+            label="PDDLStream: unsolved (its 10 s limit)",
+        )
 
 
 # ---------------------------------------------------------------------------------------- CLI
