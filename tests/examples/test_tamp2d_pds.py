@@ -10,7 +10,7 @@ import pytest
 
 from llmpas.examples.tamp2d_pds import FAMILIES, STREAM_NAMES, make_problem, make_world
 from llmpas.examples.tamp2d_pds import streams as st
-from llmpas.examples.tamp2d_pds.geometry import Conf, Grasp, Pose, Traj, gripper_rect
+from llmpas.examples.tamp2d_pds.geometry import Conf, Grasp, Pose, Traj, gripper_rect, overlaps
 from llmpas.examples.tamp2d_pds.validate import validate
 from llmpas.language.logic import And, Atom, Exists, Forall, Formula, Not, Or
 from llmpas.language.semantics import nnf
@@ -51,14 +51,14 @@ def test_generated_worlds_are_consistent(family: str, n: int, seed: int) -> None
     assert len(w.blocks) == len(w.start) == len(w.goals) == n
     rects = [b.rect(p) for b, p in zip(w.blocks, w.start, strict=True)]
     for r1, r2 in itertools.combinations(rects, 2):
-        assert not r1.overlaps(r2)
+        assert not overlaps(r1, r2)
     for b, p, g in zip(w.blocks, w.start, w.goals, strict=True):
         assert w.ground.contains(b, p)
-        assert not any(b.rect(p).overlaps(o) for o in w.obstacles)
+        assert not any(overlaps(b.rect(p), o) for o in w.obstacles)
         done = p == g if isinstance(g, Pose) else g.contains(b, p)
         assert not done  # nothing starts at its goal
     for home in w.homes:
-        assert not any(gripper_rect(home).overlaps(o) for o in w.obstacles)
+        assert not any(overlaps(gripper_rect(home), o) for o in w.obstacles)
 
 
 def test_seeds_give_different_worlds() -> None:
@@ -111,7 +111,7 @@ def test_samplers_stay_in_their_region_and_off_the_wall() -> None:
     poses = [p for (p,) in itertools.islice(st.sample_pose(w, rng, b.name, "ground"), 300)]
     assert len(set(poses)) == 300
     assert all(w.ground.contains(b, p) for p in poses)
-    assert not any(b.rect(p).overlaps(w.obstacles[0]) for p in poses)
+    assert not any(overlaps(b.rect(p), w.obstacles[0]) for p in poses)
     grasps = [g for (g,) in itertools.islice(st.sample_grasp(w, rng, b.name), 50)]
     assert grasps[0] == Grasp(0.0, b.height / 2 + 0.15)
     for g in grasps:  # the gripper stays on the top face

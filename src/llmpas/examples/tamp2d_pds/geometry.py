@@ -14,6 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from llmpas.examples.mobile.geometry import Rect, rect_array
+from llmpas.examples.tamp2d.world import Conf, Traj
+
 GRIPPER_WIDTH = 0.4
 GRIPPER_HEIGHT = 0.3
 RESOLUTION = 0.05  # distance between collision-checked points along a path
@@ -36,54 +39,14 @@ class Grasp:
     dy: float
 
 
-@dataclass(frozen=True)
-class Conf:
-    """A gripper configuration: the centre of the gripper."""
-
-    x: float
-    y: float
-
-
-@dataclass(frozen=True)
-class Traj:
-    """A piecewise-linear gripper path."""
-
-    waypoints: tuple[Conf, ...]
-
-    def __post_init__(self) -> None:
-        if not self.waypoints:
-            raise ValueError("a trajectory needs at least one waypoint")
-
-    @property
-    def length(self) -> float:
-        pts = self.points()
-        return float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
-
-    def points(self) -> np.ndarray:
-        return np.array([(q.x, q.y) for q in self.waypoints], dtype=float)
-
-
-@dataclass(frozen=True)
-class Rect:
-    """An axis-aligned rectangle ``[x0, x1] x [y0, y1]``."""
-
-    x0: float
-    y0: float
-    x1: float
-    y1: float
-
-    def __post_init__(self) -> None:
-        if not (self.x0 <= self.x1 and self.y0 <= self.y1):
-            raise ValueError(f"empty rectangle {self}")
-
-    def overlaps(self, other: Rect) -> bool:
-        """The two share more than a boundary."""
-        return bool(
-            self.x0 < other.x1 - MARGIN
-            and other.x0 < self.x1 - MARGIN
-            and self.y0 < other.y1 - MARGIN
-            and other.y0 < self.y1 - MARGIN
-        )
+def overlaps(a: Rect, b: Rect) -> bool:
+    """The two rectangles share more than a boundary."""
+    return bool(
+        a.x0 < b.x1 - MARGIN
+        and b.x0 < a.x1 - MARGIN
+        and a.y0 < b.y1 - MARGIN
+        and b.y0 < a.y1 - MARGIN
+    )
 
 
 @dataclass(frozen=True)
@@ -157,16 +120,18 @@ def sample_path(waypoints: tuple[Conf, ...], resolution: float = RESOLUTION) -> 
 def swept_hits(centres: np.ndarray, half: tuple[float, float], rects: list[Rect]) -> np.ndarray:
     """For a rectangle of half-size ``half`` centred at each row of ``centres``: whether it
     overlaps any of ``rects`` (a boolean per centre)."""
-    hit = np.zeros(len(centres), dtype=bool)
+    if not rects:
+        return np.zeros(len(centres), dtype=bool)
+    r = rect_array(tuple(rects))[None, :, :]  # (1, m, 4)
+    c = centres[:, None, :]  # (k, 1, 2)
     hx, hy = half
-    for r in rects:
-        hit |= (
-            (centres[:, 0] - hx < r.x1 - MARGIN)
-            & (r.x0 < centres[:, 0] + hx - MARGIN)
-            & (centres[:, 1] - hy < r.y1 - MARGIN)
-            & (r.y0 < centres[:, 1] + hy - MARGIN)
-        )
-    return hit
+    hit = (
+        (c[..., 0] - hx < r[..., 2] - MARGIN)
+        & (r[..., 0] < c[..., 0] + hx - MARGIN)
+        & (c[..., 1] - hy < r[..., 3] - MARGIN)
+        & (r[..., 1] < c[..., 1] + hy - MARGIN)
+    )
+    return np.asarray(hit.any(axis=1))
 
 
 GRIPPER_HALF = (GRIPPER_WIDTH / 2, GRIPPER_HEIGHT / 2)
@@ -188,6 +153,7 @@ __all__ = [
     "grasp_conf",
     "gripper_rect",
     "held_pose",
+    "overlaps",
     "sample_path",
     "swept_hits",
 ]

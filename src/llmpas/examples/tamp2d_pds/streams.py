@@ -21,6 +21,7 @@ from llmpas.examples.tamp2d_pds.geometry import (
     Pose,
     Traj,
     grasp_conf,
+    overlaps,
     sample_path,
     swept_hits,
 )
@@ -51,7 +52,7 @@ def sample_pose(
     misses = 0
     while misses < MAX_REJECTIONS:
         p = b.resting(float(rng.uniform(lo, hi)))
-        if any(b.rect(p).overlaps(o) for o in world.obstacles):
+        if any(overlaps(b.rect(p), o) for o in world.obstacles):
             misses += 1
             continue
         misses = 0
@@ -118,7 +119,7 @@ def test_cfree(world: World, block1: str, pose1: Pose, block2: str, pose2: Pose)
     """The two blocks' rectangles do not overlap (a block never collides with itself)."""
     if block1 == block2:
         return True
-    return not world.block(block1).rect(pose1).overlaps(world.block(block2).rect(pose2))
+    return not overlaps(world.block(block1).rect(pose1), world.block(block2).rect(pose2))
 
 
 def test_contain(world: World, block: str, pose: Pose, region: str) -> bool:

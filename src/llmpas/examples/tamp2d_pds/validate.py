@@ -31,6 +31,7 @@ from llmpas.examples.tamp2d_pds.geometry import (
     Traj,
     close,
     grasp_conf,
+    overlaps,
     sample_path,
     swept_hits,
 )
@@ -182,7 +183,7 @@ def _move(scene: _Scene, r: Any, q1: Any, t: Any, q2: Any) -> None:
     r = _robot(scene, r)
     if not (isinstance(t, Traj) and isinstance(q1, Conf) and isinstance(q2, Conf)):
         raise Invalid("a move needs two confs and a trajectory")
-    if not close(scene.confs[r], q1) or not close(t.waypoints[0], q1):
+    if not t.waypoints or not close(scene.confs[r], q1) or not close(t.waypoints[0], q1):
         raise Invalid("the trajectory does not start where the robot is")
     if not close(t.waypoints[-1], q2):
         raise Invalid("the trajectory does not end at the target conf")
@@ -233,7 +234,7 @@ def _place(scene: _Scene, r: Any, b: Any, p: Any, g: Any, q: Any) -> None:
     if not scene.world.ground.contains(block, p):
         raise Invalid(f"{b} would not stand on the ground")
     rect = block.rect(p)
-    if any(rect.overlaps(o) for o in (*scene.world.obstacles, *scene.standing())):
+    if any(overlaps(rect, o) for o in (*scene.world.obstacles, *scene.standing())):
         raise Invalid(f"{b} would overlap a wall or another block")
     scene.poses[b] = p
     scene.held[r] = None
