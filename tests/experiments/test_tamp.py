@@ -95,3 +95,14 @@ def test_a_tiny_real_run_writes_table_plot_and_cache(tmp_path: Path) -> None:
     before = [p.read_text() for p in cached]
     assert main([*argv, "--out", str(out)]) == 0  # resumed from the cache: nothing re-run
     assert [p.read_text() for p in cached] == before
+
+
+def test_a_trial_past_its_deadline_is_killed_and_a_failing_one_reported(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(tamp, "KILL_GRACE", 0.0)
+    late = tamp.run_job(Payload("mirror", 1, "computed", 0, 0.001, 3072, 1))
+    assert late["status"] == "killed" and not late["valid"]
+    monkeypatch.setattr(tamp, "KILL_GRACE", 30.0)
+    bad = tamp.run_job(Payload("spiral", 1, "computed", 0, 5.0, 3072, 1))
+    assert bad["status"] == "crashed" and "unknown family" in bad["validation"]

@@ -160,6 +160,8 @@ def _child(p: Payload, conn: Connection) -> None:
         conn.send(measure(p))
     except MemoryError:
         conn.send(_failed(p, "crashed", f"out of memory ({p.memory_mb} MB)"))
+    except Exception as e:  # reported as the trial's outcome, the run goes on
+        conn.send(_failed(p, "crashed", f"{type(e).__name__}: {e}"[:300]))
     finally:
         conn.close()
 
