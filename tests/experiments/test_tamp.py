@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import io
+import statistics
 from pathlib import Path
 from typing import Any
 
@@ -56,6 +57,10 @@ def test_a_mode_that_solves_nothing_is_not_run_at_larger_sizes(
     table = (tmp_path / "tamp.md").read_text()
     assert "| mirror | 2 | not run | — | 0.20 | 2/2 |" in table
     assert REFERENCE_LABEL in table
+    assert tamp.cpu_share(report.trials) == pytest.approx(
+        statistics.median(t.cpu / t.wall for t in report.trials if t.solved)
+    )
+    assert "Median CPU / wall of the solved trials" in table
     rows = {(r.family, r.size): r for r in report.rows}
     assert rows["packed", 3].cpu["computed"] == pytest.approx(3.0)
     assert rows["packed", 3].solved == {"computed": 2, "deferred": 0}

@@ -297,7 +297,7 @@ def run_tamp(config: TampBenchConfig, console: Console | None = None) -> Report:
             combos = [c for c in combos if any(t.solved for t in now if (t.family, t.mode) == c)]
     rows = summarise(trials, config)
     files = write_outputs(trials, rows, config)
-    console.print(markdown_table(rows, config))
+    console.print(markdown_table(rows, config, cpu_share(trials)))
     return Report(tuple(trials), rows, files)
 
 
@@ -344,7 +344,14 @@ def _reference(family: str, size: int) -> str:
     return "unsolved" if value is None else f"{value:g}"
 
 
-def markdown_table(rows: Iterable[Row], config: TampBenchConfig) -> str:
+def cpu_share(trials: Sequence[Trial]) -> float | None:
+    """Median CPU / wall of the solved trials that took at least 1 s of wall: near 1 on an
+    idle machine, lower when other work competed for the cores."""
+    shares = [t.cpu / t.wall for t in trials if t.solved and t.wall >= 1.0]
+    return statistics.median(shares) if shares else None
+
+
+def markdown_table(rows: Iterable[Row], config: TampBenchConfig, share: float | None = None) -> str:
     jobs = "trials one at a time" if config.jobs == 1 else f"{config.jobs} parallel: contended"
     lines = [
         f"Planning CPU time on pds-tamp2d (median of solved and validated trials, CPU seconds of "
@@ -368,6 +375,12 @@ def markdown_table(rows: Iterable[Row], config: TampBenchConfig) -> str:
         "not run: the same mode solved no trial at a smaller size. Unsolved includes timeouts "
         "and plans that failed validation (counted as invalid).",
     ]
+    if share is not None:
+        lines.append(
+            f"Median CPU / wall of the solved trials over 1 s: {share:.2f} (1 on an idle "
+            "machine; lower when other work shared the cores, which makes the wall-clock limit "
+            "tighter in CPU seconds)."
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -377,7 +390,7 @@ def write_outputs(
     out = config.out_dir
     out.mkdir(parents=True, exist_ok=True)
     csv_path = write_csv(out / "tamp.csv", [asdict(t) for t in trials])
-    md_path = atomic_write(out / "tamp.md", markdown_table(rows, config))
+    md_path = atomic_write(out / "tamp.md", markdown_table(rows, config, cpu_share(trials)))
     png_path = out / "tamp.png"
     plot(trials, rows, config, png_path)
     return (csv_path, md_path, png_path)
