@@ -4,14 +4,24 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+from typing import Any
 
 import numpy as np
 import pytest
 
 from llmpas.examples.tamp2d_pds import FAMILIES, STREAM_NAMES, make_problem, make_world
 from llmpas.examples.tamp2d_pds import streams as st
-from llmpas.examples.tamp2d_pds.geometry import Conf, Grasp, Pose, Traj, gripper_rect, overlaps
-from llmpas.examples.tamp2d_pds.validate import validate
+from llmpas.examples.tamp2d_pds.geometry import (
+    Conf,
+    Grasp,
+    Pose,
+    Traj,
+    grasp_conf,
+    gripper_rect,
+    overlaps,
+)
+from llmpas.examples.tamp2d_pds.validate import Invalid, check_geometry, validate
+from llmpas.examples.tamp2d_pds.world import World
 from llmpas.language.logic import And, Atom, Exists, Forall, Formula, Not, Or
 from llmpas.language.semantics import nnf
 from llmpas.planning import PlannerConfig, solve
@@ -211,3 +221,56 @@ def test_a_trajectory_through_the_wall_fails_only_the_geometry() -> None:
     check = validate(w, p, dataclasses.replace(plan, objects=objects))  # type: ignore[arg-type]
     assert not check.valid and check.stage == "geometry"
     assert "collides" in check.message
+
+
+def _simulate(world: World, steps: list[tuple[str, tuple[Any, ...]]]) -> str:
+    """Run the geometric check on steps given with values; its message ("ok" when it passes)."""
+    values: dict[str, Any] = {}
+    named = []
+    for action, args in steps:
+        names = []
+        for a in args:
+            if isinstance(a, str):
+                names.append(a)
+            else:
+                values[f"x{len(values)}"] = a
+                names.append(f"x{len(values) - 1}")
+        named.append((action, tuple(names)))
+    try:
+        check_geometry(world, None, None, named, values)  # type: ignore[arg-type]
+    except Invalid as e:
+        return str(e)
+    return "ok"
+
+
+def _pick_steps(world: World, robot: int, grasp: Grasp) -> list[tuple[str, tuple[Any, ...]]]:
+    b, p = world.blocks[0], world.start[0]
+    q = grasp_conf(p, grasp)
+    home = world.homes[robot]
+    (t,) = st.plan_motion(world, home, q) or ()
+    r = world.robots[robot]
+    return [("move", (r, home, t, q)), ("pick", (r, b.name, p, grasp, q))]
+
+
+def test_a_grasp_off_the_top_face_fails_the_geometry() -> None:
+    w = make_world("mirror", 1, 0)
+    b = w.blocks[0]
+    top = b.height / 2 + 0.15
+    # a good grasp passes every step (only the goal, never reached here, fails at the end)
+    assert _simulate(w, _pick_steps(w, 0, Grasp(0.0, top))).endswith("is not standing at the end")
+    assert "top face" in _simulate(w, _pick_steps(w, 0, Grasp(0.0, top + 0.2)))
+    assert "top face" in _simulate(w, _pick_steps(w, 0, Grasp(b.width / 2, top)))
+
+
+def test_robots_collide_with_each_other() -> None:
+    """Robot r1 descends to the conf where r0 holds the block: the domain allows it, the
+    geometry does not."""
+    w = make_world("mirror", 1, 0)
+    g = Grasp(0.0, w.blocks[0].height / 2 + 0.15)
+    first = _pick_steps(w, 0, g)
+    q = first[0][1][3]
+    (t,) = st.plan_motion(w, w.homes[1], q) or ()
+    alone = [("move", ("r1", w.homes[1], t, q))]
+    assert _simulate(w, alone).endswith("does not reach its goal")  # fine without r0 there
+    steps = [*first, ("move", ("r1", w.homes[1], t, q))]
+    assert "step 3" in _simulate(w, steps) and "collides" in _simulate(w, steps)

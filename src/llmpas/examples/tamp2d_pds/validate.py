@@ -7,12 +7,13 @@
    the plan mentions (the planner's own test results are not trusted).
 3. *Geometry*: the plan is simulated on the real values: every move follows its trajectory from
    the robot's conf to the next (points ``RESOLUTION`` apart: gripper and held block clear of the
-   standing blocks, the walls and the ground); every pick and place is at the conf its grasp puts
-   the gripper; placed blocks stand on the ground, overlap nothing; at the end every block is at
-   its goal pose or inside its goal region and every robot is home with an empty hand.
+   standing blocks, the walls, the ground and the other robots); every pick and place is at the
+   conf its grasp puts the gripper, on the block's top face; placed blocks stand on the ground
+   and overlap nothing; at the end every block is at its goal pose or inside its goal region and
+   every robot is home with an empty hand.
 
-Robots are not checked against each other (as in PDDLStream's example, the domain does not
-model it); plans are sequential.
+Robots are also checked against each other (gripper and held block), which the domain does not
+model (as in PDDLStream's example): a plan can replay and still fail here.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from typing import Any
 
 from llmpas.examples.tamp2d_pds.geometry import (
     GRIPPER_HALF,
+    Block,
     Conf,
     Grasp,
     Pose,
@@ -31,6 +33,8 @@ from llmpas.examples.tamp2d_pds.geometry import (
     Traj,
     close,
     grasp_conf,
+    gripper_rect,
+    held_pose,
     overlaps,
     sample_path,
     swept_hits,
@@ -152,6 +156,18 @@ class _Scene:
         w = self.world
         return [w.block(b).rect(p) for b, p in sorted(self.poses.items()) if b != but]
 
+    def other_robots(self, r: str) -> list[Rect]:
+        """The grippers of the robots other than ``r``, and the blocks they hold."""
+        out = []
+        for other, q in sorted(self.confs.items()):
+            if other == r:
+                continue
+            out.append(gripper_rect(q))
+            held = self.held[other]
+            if held is not None:
+                out.append(self.world.block(held[0]).rect(held_pose(q, held[1])))
+        return out
+
 
 def check_geometry(
     world: World, problem: Problem, plan: Plan, steps: list[Step], values: Mapping[str, Any]
@@ -188,7 +204,7 @@ def _move(scene: _Scene, r: Any, q1: Any, t: Any, q2: Any) -> None:
     if not close(t.waypoints[-1], q2):
         raise Invalid("the trajectory does not end at the target conf")
     pts = sample_path(t.waypoints)
-    obstacles = [*scene.world.obstacles, *scene.standing()]
+    obstacles = [*scene.world.obstacles, *scene.standing(), *scene.other_robots(r)]
     if swept_hits(pts, GRIPPER_HALF, obstacles).any():
         raise Invalid("the gripper collides on the way")
     if (pts[:, 1] - GRIPPER_HALF[1] < -1e-6).any():
@@ -213,6 +229,13 @@ def _at_grasp(scene: _Scene, r: str, p: Any, g: Any, q: Any) -> None:
         raise Invalid("the conf does not hold the block at the pose with the grasp")
 
 
+def _check_grasp(block: Block, g: Grasp) -> None:
+    """Suction on the top face: the gripper rests on it and does not overhang it."""
+    on_top = abs(g.dy - (block.height / 2 + GRIPPER_HALF[1])) <= 1e-6
+    if not on_top or abs(g.dx) + GRIPPER_HALF[0] > block.width / 2 + 1e-6:
+        raise Invalid(f"the grasp is not on the top face of {block.name}")
+
+
 def _pick(scene: _Scene, r: Any, b: Any, p: Any, g: Any, q: Any) -> None:
     r = _robot(scene, r)
     _at_grasp(scene, r, p, g, q)
@@ -220,6 +243,7 @@ def _pick(scene: _Scene, r: Any, b: Any, p: Any, g: Any, q: Any) -> None:
         raise Invalid("the gripper is not empty")
     if b not in scene.poses or not close(scene.poses[b], p):
         raise Invalid(f"block {b} is not at the pose")
+    _check_grasp(scene.world.block(b), g)
     del scene.poses[b]
     scene.held[r] = (b, g)
 
@@ -236,6 +260,8 @@ def _place(scene: _Scene, r: Any, b: Any, p: Any, g: Any, q: Any) -> None:
     rect = block.rect(p)
     if any(overlaps(rect, o) for o in (*scene.world.obstacles, *scene.standing())):
         raise Invalid(f"{b} would overlap a wall or another block")
+    if any(overlaps(rect, o) for o in scene.other_robots(r)):
+        raise Invalid(f"{b} would overlap another robot or the block it holds")
     scene.poses[b] = p
     scene.held[r] = None
 
