@@ -18,9 +18,12 @@ not run at larger sizes (``--keep-going`` runs them anyway).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import logging
 import multiprocessing
+import os
 import resource
+import signal
 import statistics
 import time
 from collections.abc import Iterable, Sequence
@@ -153,6 +156,7 @@ def measure(p: Payload) -> dict[str, Any]:
 
 
 def _child(p: Payload, conn: Connection) -> None:
+    os.setsid()  # its own process group: a kill also ends the searches it started
     limit = p.memory_mb * 1024 * 1024
     resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
     logging.disable(logging.WARNING)
@@ -199,7 +203,9 @@ def run_job(p: Payload) -> dict[str, Any]:
                 break
         elif not proc.is_alive() and not recv.poll(0):
             break
-    if proc.is_alive():
+    if proc.is_alive() and proc.pid is not None:
+        with contextlib.suppress(ProcessLookupError):  # its group exists once it called setsid
+            os.killpg(proc.pid, signal.SIGKILL)
         proc.kill()
     proc.join()
     recv.close()
