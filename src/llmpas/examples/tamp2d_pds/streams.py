@@ -7,8 +7,9 @@ obstacles (the streams do not see where movable blocks are: that is the planner'
 
 from __future__ import annotations
 
-from collections.abc import Collection, Iterator
+from collections.abc import Callable, Collection, Iterator
 from functools import partial
+from typing import Any
 
 import numpy as np
 
@@ -137,20 +138,20 @@ def implementations(
 ) -> dict[str, Implementation]:
     """Every stream and function of ``stream.pddl`` bound to ``world``; ``deferred`` streams are
     marked deferred (the planner leaves them to execution when its ``defer`` is on)."""
-    unknown = sorted(set(deferred) - set(STREAM_NAMES))
-    if unknown:
-        raise ValueError(f"unknown stream {unknown[0]!r}; streams are {', '.join(STREAM_NAMES)}")
+    if not set(deferred) <= set(DEFERRABLE):
+        wrong = sorted(set(deferred) - set(DEFERRABLE))[0]
+        raise ValueError(f"unknown stream {wrong!r} to defer; deferrable: {', '.join(DEFERRABLE)}")
+    geometry: dict[str, tuple[Callable[..., Any], float]] = {
+        "inverse-kinematics": (inverse_kinematics, 0.5),
+        "plan-motion": (plan_motion, 1.0),
+    }
     return {
         "sample-pose": sampler(partial(sample_pose, world, rng)),
         "sample-grasp": sampler(partial(sample_grasp, world, rng), overhead=0.5),
-        "inverse-kinematics": function(
-            partial(inverse_kinematics, world),
-            overhead=0.5,
-            deferred="inverse-kinematics" in deferred,
-        ),
-        "plan-motion": function(
-            partial(plan_motion, world), overhead=1.0, deferred="plan-motion" in deferred
-        ),
+        **{
+            name: function(partial(fn, world), overhead=overhead, deferred=name in deferred)
+            for name, (fn, overhead) in geometry.items()
+        },
         "test-cfree": test(partial(test_cfree, world), overhead=0.1),
         "test-contain": test(partial(test_contain, world), overhead=0.1),
         "dist": cost(partial(distance, world)),
