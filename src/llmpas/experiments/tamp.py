@@ -37,7 +37,14 @@ from rich.console import Console
 
 from llmpas.examples.tamp2d_pds import FAMILIES, make_problem
 from llmpas.examples.tamp2d_pds.validate import validate
-from llmpas.experiments.jobs import Job, fingerprint, run_jobs
+from llmpas.experiments.jobs import (
+    ExecutorSpec,
+    Job,
+    add_executor_arguments,
+    executor_from_args,
+    fingerprint,
+    run_jobs,
+)
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning import PlannerConfig, solve
 
@@ -64,6 +71,7 @@ class TampBenchConfig:
     memory_mb: int = 3072  # address-space limit of a trial's process
     keep_going: bool = False  # run larger sizes after a size with no solved trial
     out_dir: Path = Path("results/tamp")
+    executor: ExecutorSpec = field(default_factory=ExecutorSpec)
 
     def __post_init__(self) -> None:
         unknown = [f for f in self.families if f not in FAMILIES]
@@ -294,6 +302,7 @@ def run_tamp(config: TampBenchConfig, console: Console | None = None) -> Report:
             run_job,
             config.out_dir / "cache",
             workers=config.jobs,
+            executor=config.executor,
             description=f"bench tamp N={size}",
             console=console,
         )
@@ -483,6 +492,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--keep-going", action="store_true", help="run sizes past an unsolved one")
     p.add_argument("--jobs", type=int, default=1, help="parallel trials (> 1: contended)")
     p.add_argument("--out", default="results/tamp", help="folder for table, plot and cache")
+    add_executor_arguments(p)
 
 
 def command(args: argparse.Namespace, console: Console) -> int:
@@ -495,6 +505,7 @@ def command(args: argparse.Namespace, console: Console) -> int:
         memory_mb=args.memory_mb,
         keep_going=args.keep_going,
         out_dir=Path(args.out),
+        executor=executor_from_args(args),
     )
     report = run_tamp(config, console)
     console.print(f"wrote {', '.join(str(p) for p in report.files)}")

@@ -1,4 +1,4 @@
-; expect: 3 unknown function 'fuel'
+; expect: 3 :5:13: function 'fuel' is not declared
 (define (problem two-blocks)
   (:domain place1d)
   (:objects b0 b1 r1 r2 p0 p1 q0)

@@ -1,4 +1,4 @@
-; expect: 3 :7:3: expected ':stream' or ':function', found ':strem'
+; expect: 3 :7:3: expected ':stream', ':function', ':predicate' or ':rule', found ':strem'
 (define (stream place1d)
   (:stream sample-pose :inputs (?b ?r) :domain (and (Block ?b) (Region ?r))
     :outputs (?p) :certified (and (Pose ?b ?p) (Contained ?b ?p ?r)))
