@@ -1,0 +1,148 @@
+"""The bounded transport against a raw-socket server on 127.0.0.1 that never stops talking."""
+
+from __future__ import annotations
+
+import socket
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager, suppress
+from dataclasses import dataclass, field
+
+import httpx2 as httpx
+import pytest
+
+from llmpas.reasoning.backends import OpenAIBackend
+from llmpas.reasoning.backends.bounded_http import BodyTooLarge, BoundedTransport, DeadlinePassed
+from llmpas.reasoning.llm import Fault, LLMServerError, Message, Request
+
+GUARD = 60.0  # seconds: the server hangs up by then (a hang guard, never a speed assertion)
+Talk = Callable[[socket.socket, threading.Event], None]
+
+
+@dataclass
+class Server:
+    url: str
+    ends: list[str] = field(default_factory=list)  # per connection: "hung up on" or "finished"
+    ended: threading.Event = field(default_factory=threading.Event)
+
+    def first_end(self) -> str:
+        assert self.ended.wait(GUARD + 10), "the server never finished talking"
+        return self.ends[0]
+
+
+@contextmanager
+def raw_server(talk: Talk) -> Iterator[Server]:
+    """Accepts connections on 127.0.0.1 and lets ``talk`` write whatever it likes to each."""
+    stop = threading.Event()
+    listener = socket.create_server(("127.0.0.1", 0))
+    listener.settimeout(0.05)
+    server = Server(f"http://127.0.0.1:{listener.getsockname()[1]}/v1")
+
+    def serve_one(conn: socket.socket) -> None:
+        with conn:
+            try:
+                conn.recv(1 << 16)  # the request (small; its end does not matter here)
+                talk(conn, stop)
+                server.ends.append("finished")
+            except OSError:
+                server.ends.append("hung up on")
+            server.ended.set()
+
+    def accept() -> None:
+        while not stop.is_set():
+            with suppress(TimeoutError):
+                conn, _ = listener.accept()
+                threading.Thread(target=serve_one, args=(conn,), daemon=True).start()
+
+    thread = threading.Thread(target=accept, daemon=True)
+    thread.start()
+    try:
+        yield server
+    finally:
+        stop.set()
+        thread.join(timeout=5)
+        listener.close()
+
+
+def endless_body(status: int) -> Talk:
+    def talk(conn: socket.socket, stop: threading.Event) -> None:
+        conn.sendall(f"HTTP/1.1 {status} X\r\nContent-Type: application/json\r\n\r\n".encode())
+        chunk = b'{"choices": "' + b"x" * 65_536
+        for _ in range(int(GUARD * 100)):  # about 40 GB if nothing stops the client
+            if stop.is_set():
+                return
+            conn.sendall(chunk)
+
+    return talk
+
+
+def trickle(head: bytes, *, then: bytes) -> Talk:
+    """Sends ``head``, then ``then`` byte after byte every 20 ms, for up to GUARD seconds."""
+
+    def talk(conn: socket.socket, stop: threading.Event) -> None:
+        conn.sendall(head)
+        for i in range(int(GUARD / 0.02)):
+            if stop.wait(0.02):
+                return
+            conn.sendall(then[i % len(then) : i % len(then) + 1])
+
+    return talk
+
+
+def client(seconds: float, max_bytes: int = 1 << 20) -> httpx.Client:
+    # each read may wait as long as GUARD: only the transport's deadline can end a trickle
+    timeout = httpx.Timeout(GUARD)
+    return httpx.Client(transport=BoundedTransport(seconds, max_bytes), timeout=timeout)
+
+
+def test_an_endless_body_is_cut_at_the_size_cap() -> None:
+    with raw_server(endless_body(200)) as srv:
+        with pytest.raises(BodyTooLarge, match="100000 bytes"):
+            client(GUARD, max_bytes=100_000).post(srv.url, content=b"{}")
+        assert srv.first_end() == "hung up on"
+
+
+def test_a_trickled_body_is_cut_at_the_deadline() -> None:
+    head = b"HTTP/1.1 200 OK\r\nContent-Length: 100000\r\n\r\n"
+    with raw_server(trickle(head, then=b"x")) as srv:
+        with pytest.raises(DeadlinePassed, match=r"0\.5 s"):
+            client(0.5).post(srv.url, content=b"{}")
+        assert srv.first_end() == "hung up on"  # not waited out to the end of the trickle
+
+
+def test_trickled_headers_are_cut_at_the_deadline() -> None:
+    # no body yet: the per-chunk check cannot help, only the watchdog shutting the socket
+    with raw_server(trickle(b"HTTP/1.1 200 OK\r\n", then=b"X-Slow: a\r\n")) as srv:
+        with pytest.raises(DeadlinePassed, match=r"0\.5 s"):
+            client(0.5).post(srv.url, content=b"{}")
+        assert srv.first_end() == "hung up on"
+
+
+def test_an_answer_within_the_limits_passes_intact() -> None:
+    body = b'{"ok": true}' + b" " * 5000
+
+    def talk(conn: socket.socket, stop: threading.Event) -> None:
+        head = f"HTTP/1.1 200 OK\r\nContent-Length: {len(body)}\r\n\r\n".encode()
+        conn.sendall(head + body)
+
+    with raw_server(talk) as srv:
+        http = client(GUARD, max_bytes=len(body))
+        assert [http.post(srv.url, content=b"{}").content for _ in range(3)] == [body] * 3
+        assert srv.ends == ["finished"] * 3  # a fresh connection for each request
+
+
+def test_limits_are_validated() -> None:
+    with pytest.raises(ValueError, match="seconds"):
+        BoundedTransport(0.0, 10)
+    with pytest.raises(ValueError, match="max_bytes"):
+        BoundedTransport(1.0, 0)
+
+
+@pytest.mark.parametrize("status", [200, 500])
+def test_the_backend_reports_an_endless_answer_or_error_body_as_too_large(status: int) -> None:
+    request = Request(messages=(Message("user", "cube fell"),))
+    with raw_server(endless_body(status)) as srv, pytest.raises(LLMServerError) as err:
+        OpenAIBackend("m", base_url=srv.url, max_bytes=100_000, max_retries=0).complete(request)
+    assert err.value.fault is Fault.TOO_LARGE
+    assert "larger than 100000 bytes" in str(err.value)
+    assert f"openai:m at {srv.url.split('/')[2]}: " in str(err.value)
