@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import socket
+import sys
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager, suppress
@@ -13,7 +14,7 @@ import pytest
 
 from llmpas.reasoning.backends import OpenAIBackend
 from llmpas.reasoning.backends.bounded_http import BodyTooLarge, BoundedTransport, DeadlinePassed
-from llmpas.reasoning.llm import Fault, LLMServerError, Message, Request
+from llmpas.reasoning.llm import Fault, LLMError, LLMServerError, Message, Request
 
 GUARD = 60.0  # seconds: the server hangs up by then (a hang guard, never a speed assertion)
 Talk = Callable[[socket.socket, threading.Event], None]
@@ -146,3 +147,11 @@ def test_the_backend_reports_an_endless_answer_or_error_body_as_too_large(status
     assert err.value.fault is Fault.TOO_LARGE
     assert "larger than 100000 bytes" in str(err.value)
     assert f"openai:m at {srv.url.split('/')[2]}: " in str(err.value)
+
+
+def test_the_backend_without_the_openai_package_is_an_llm_error(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setitem(sys.modules, "openai", None)  # makes `import openai` fail
+    with pytest.raises(LLMError, match=r"pip install 'llmpas\[llm\]'"):
+        OpenAIBackend("m", base_url="http://127.0.0.1:9/v1")

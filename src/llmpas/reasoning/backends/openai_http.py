@@ -32,6 +32,7 @@ LOCAL_DUMMY_KEY = "sk-local-no-key"  # local servers (llama.cpp, vLLM) accept an
 DEFAULT_BASE_URL = "https://api.openai.com/v1"
 MAX_BYTES = 1 << 20  # an answer of max_tokens tokens is a few kB; 1 MiB is far beyond
 RETRYABLE = (Fault.TIMEOUT, Fault.CONNECTION)
+INSTALL_HINT = "pip install 'llmpas[llm]' (or pip install 'openai>=3,<4')"
 
 
 @dataclass(frozen=True)
@@ -201,11 +202,13 @@ class OpenAIBackend:
 
 def _sdk_client(base_url: str, key: str, timeout: float, max_bytes: int) -> Any:
     """The ``openai`` client: no retries of its own, every request through a bounded transport."""
-    import httpx2
-    import openai
+    try:
+        import httpx2
+        import openai
 
-    from llmpas.reasoning.backends.bounded_http import BoundedTransport
-
+        from llmpas.reasoning.backends.bounded_http import BoundedTransport
+    except ImportError:
+        raise LLMError(f"the openai package (3.x) is not installed: {INSTALL_HINT}") from None
     limits = httpx2.Timeout(timeout)  # connect, write, each read: within the attempt's deadline
     http = httpx2.Client(transport=BoundedTransport(timeout, max_bytes), timeout=limits)
     return openai.OpenAI(
