@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gzip
 import socket
 import sys
 import threading
@@ -24,6 +25,7 @@ Talk = Callable[[socket.socket, threading.Event], None]
 class Server:
     url: str
     ends: list[str] = field(default_factory=list)  # per connection: "hung up on" or "finished"
+    requests: list[bytes] = field(default_factory=list)
     ended: threading.Event = field(default_factory=threading.Event)
 
     def first_end(self) -> str:
@@ -42,7 +44,7 @@ def raw_server(talk: Talk) -> Iterator[Server]:
     def serve_one(conn: socket.socket) -> None:
         with conn:
             try:
-                conn.recv(1 << 16)  # the request (small; its end does not matter here)
+                server.requests.append(conn.recv(1 << 16))  # small; its end does not matter
                 talk(conn, stop)
                 server.ends.append("finished")
             except OSError:
@@ -130,6 +132,19 @@ def test_an_answer_within_the_limits_passes_intact() -> None:
         http = client(GUARD, max_bytes=len(body))
         assert [http.post(srv.url, content=b"{}").content for _ in range(3)] == [body] * 3
         assert srv.ends == ["finished"] * 3  # a fresh connection for each request
+
+
+def test_a_compressed_answer_is_never_inflated_past_the_cap() -> None:
+    bomb = gzip.compress(b" " * 20_000_000)  # about 20 kB that inflate to 20 MB
+
+    def talk(conn: socket.socket, stop: threading.Event) -> None:
+        head = f"HTTP/1.1 200 OK\r\nContent-Encoding: gzip\r\nContent-Length: {len(bomb)}\r\n\r\n"
+        conn.sendall(head.encode() + bomb)
+
+    with raw_server(talk) as srv:
+        response = client(GUARD, max_bytes=100_000).post(srv.url, content=b"{}")
+    assert response.content == bomb  # as it came, within the cap
+    assert srv.requests[0].lower().count(b"accept-encoding: identity") == 1
 
 
 def test_limits_are_validated() -> None:

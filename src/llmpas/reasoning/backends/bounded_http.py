@@ -6,7 +6,9 @@ sending, the headers and the body: a watchdog shuts the socket down when it pass
 unblocks a read waiting on a server that trickles its answer byte by byte), and the body's
 stream checks the deadline and the size cap on every chunk. Past the deadline every failure is
 a :class:`DeadlinePassed` (an ``httpx.ReadTimeout``); a body over the cap, error bodies
-included, is a :class:`BodyTooLarge` (an ``httpx.ReadError``).
+included, is a :class:`BodyTooLarge` (an ``httpx.ReadError``). The answer is asked for
+uncompressed (``Accept-Encoding: identity``) and a ``Content-Encoding`` sent anyway is dropped,
+so the body is kept as it came: the cap bounds what is held, never inflated by a gzip bomb.
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ class BoundedTransport(httpx.BaseTransport):
     def handle_request(self, request: httpx.Request) -> httpx.Response:
         watchdog = _Watchdog(self.seconds)
         request.extensions["trace"] = watchdog.trace
+        request.headers["Accept-Encoding"] = "identity"
         try:
             response = self._inner.handle_request(request)
         except BaseException as err:
@@ -54,9 +57,11 @@ class BoundedTransport(httpx.BaseTransport):
             raise
         inner = cast(httpx.SyncByteStream, response.stream)
         stream = _BoundedStream(inner, request, watchdog, self.max_bytes)
+        # compressed anyway: kept as it came (not JSON), never inflated past the cap by httpx
+        headers = [(k, v) for k, v in response.headers.raw if k.lower() != b"content-encoding"]
         return httpx.Response(
             status_code=response.status_code,
-            headers=response.headers,
+            headers=headers,
             stream=stream,
             extensions=response.extensions,
         )
