@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import gzip
+import queue
+import re
 import socket
 import sys
 import threading
@@ -24,13 +26,24 @@ Talk = Callable[[socket.socket, threading.Event], None]
 @dataclass
 class Server:
     url: str
-    ends: list[str] = field(default_factory=list)  # per connection: "hung up on" or "finished"
     requests: list[bytes] = field(default_factory=list)
-    ended: threading.Event = field(default_factory=threading.Event)
+    ends: queue.Queue[str] = field(default_factory=queue.Queue)  # how each connection ended
 
-    def first_end(self) -> str:
-        assert self.ended.wait(GUARD + 10), "the server never finished talking"
-        return self.ends[0]
+    def next_end(self) -> str:
+        """``"finished"`` (said everything), ``"hung up on"`` (by the client), or a failure."""
+        return self.ends.get(timeout=GUARD + 10)
+
+
+def read_request(conn: socket.socket) -> bytes:
+    """The request's head and its body (``Content-Length`` bytes), however it is split."""
+    data = b""
+    while b"\r\n\r\n" not in data:
+        data += conn.recv(1 << 16) or b"\r\n\r\n"
+    head, _, body = data.partition(b"\r\n\r\n")
+    length = re.search(rb"(?i)content-length: *(\d+)", head)
+    while length and len(body) < int(length[1]) and (more := conn.recv(1 << 16)):
+        body += more
+    return head + b"\r\n\r\n" + body
 
 
 @contextmanager
@@ -44,12 +57,13 @@ def raw_server(talk: Talk) -> Iterator[Server]:
     def serve_one(conn: socket.socket) -> None:
         with conn:
             try:
-                server.requests.append(conn.recv(1 << 16))  # small; its end does not matter
+                server.requests.append(read_request(conn))
                 talk(conn, stop)
-                server.ends.append("finished")
+                server.ends.put("finished")
             except OSError:
-                server.ends.append("hung up on")
-            server.ended.set()
+                server.ends.put("hung up on")
+            except AssertionError as err:
+                server.ends.put(f"failed: {err}")
 
     def accept() -> None:
         while not stop.is_set():
@@ -102,7 +116,7 @@ def test_an_endless_body_is_cut_at_the_size_cap() -> None:
     with raw_server(endless_body(200)) as srv:
         with pytest.raises(BodyTooLarge, match="100000 bytes"):
             client(GUARD, max_bytes=100_000).post(srv.url, content=b"{}")
-        assert srv.first_end() == "hung up on"
+        assert srv.next_end() == "hung up on"
 
 
 def test_a_trickled_body_is_cut_at_the_deadline() -> None:
@@ -110,7 +124,7 @@ def test_a_trickled_body_is_cut_at_the_deadline() -> None:
     with raw_server(trickle(head, then=b"x")) as srv:
         with pytest.raises(DeadlinePassed, match=r"0\.5 s"):
             client(0.5).post(srv.url, content=b"{}")
-        assert srv.first_end() == "hung up on"  # not waited out to the end of the trickle
+        assert srv.next_end() == "hung up on"  # not waited out to the end of the trickle
 
 
 def test_trickled_headers_are_cut_at_the_deadline() -> None:
@@ -118,7 +132,7 @@ def test_trickled_headers_are_cut_at_the_deadline() -> None:
     with raw_server(trickle(b"HTTP/1.1 200 OK\r\n", then=b"X-Slow: a\r\n")) as srv:
         with pytest.raises(DeadlinePassed, match=r"0\.5 s"):
             client(0.5).post(srv.url, content=b"{}")
-        assert srv.first_end() == "hung up on"
+        assert srv.next_end() == "hung up on"
 
 
 def test_an_answer_within_the_limits_passes_intact() -> None:
@@ -127,11 +141,14 @@ def test_an_answer_within_the_limits_passes_intact() -> None:
     def talk(conn: socket.socket, stop: threading.Event) -> None:
         head = f"HTTP/1.1 200 OK\r\nContent-Length: {len(body)}\r\n\r\n".encode()
         conn.sendall(head + body)
+        conn.settimeout(GUARD)
+        assert conn.recv(1) == b"", "a second request on the same connection"
 
     with raw_server(talk) as srv:
         http = client(GUARD, max_bytes=len(body))
         assert [http.post(srv.url, content=b"{}").content for _ in range(3)] == [body] * 3
-        assert srv.ends == ["finished"] * 3  # a fresh connection for each request
+        # a fresh connection for each request: the watchdog always has its socket
+        assert [srv.next_end() for _ in range(3)] == ["finished"] * 3
 
 
 def test_a_compressed_answer_is_never_inflated_past_the_cap() -> None:
