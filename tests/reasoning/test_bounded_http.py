@@ -6,6 +6,7 @@ import gzip
 import queue
 import re
 import socket
+import ssl
 import sys
 import threading
 from collections.abc import Callable, Iterator
@@ -14,6 +15,7 @@ from dataclasses import dataclass, field
 
 import httpx2 as httpx
 import pytest
+import trustme
 
 from llmpas.reasoning.backends import OpenAIBackend
 from llmpas.reasoning.backends.bounded_http import BodyTooLarge, BoundedTransport, DeadlinePassed
@@ -47,23 +49,28 @@ def read_request(conn: socket.socket) -> bytes:
 
 
 @contextmanager
-def raw_server(talk: Talk) -> Iterator[Server]:
-    """Accepts connections on 127.0.0.1 and lets ``talk`` write whatever it likes to each."""
+def raw_server(talk: Talk, tls: ssl.SSLContext | None = None) -> Iterator[Server]:
+    """Accepts connections on 127.0.0.1 (over TLS with ``tls``) and lets ``talk`` write whatever
+    it likes to each."""
     stop = threading.Event()
     listener = socket.create_server(("127.0.0.1", 0))
     listener.settimeout(0.05)
-    server = Server(f"http://127.0.0.1:{listener.getsockname()[1]}/v1")
+    scheme = "https" if tls else "http"
+    server = Server(f"{scheme}://127.0.0.1:{listener.getsockname()[1]}/v1")
 
-    def serve_one(conn: socket.socket) -> None:
-        with conn:
-            try:
+    def serve_one(raw: socket.socket) -> None:
+        raw.settimeout(GUARD)
+        try:
+            with tls.wrap_socket(raw, server_side=True) if tls else raw as conn:
                 server.requests.append(read_request(conn))
                 talk(conn, stop)
-                server.ends.put("finished")
-            except OSError:
-                server.ends.put("hung up on")
-            except AssertionError as err:
-                server.ends.put(f"failed: {err}")
+            server.ends.put("finished")
+        except OSError:  # ssl.SSLError too
+            server.ends.put("hung up on")
+        except AssertionError as err:
+            server.ends.put(f"failed: {err}")
+        finally:
+            raw.close()
 
     def accept() -> None:
         while not stop.is_set():
@@ -106,10 +113,25 @@ def trickle(head: bytes, *, then: bytes) -> Talk:
     return talk
 
 
-def client(seconds: float, max_bytes: int = 1 << 20) -> httpx.Client:
+def client(
+    seconds: float, max_bytes: int = 1 << 20, verify: ssl.SSLContext | bool = True
+) -> httpx.Client:
     # each read may wait as long as GUARD: only the transport's deadline can end a trickle
-    timeout = httpx.Timeout(GUARD)
-    return httpx.Client(transport=BoundedTransport(seconds, max_bytes), timeout=timeout)
+    transport = BoundedTransport(seconds, max_bytes, verify=verify)
+    return httpx.Client(transport=transport, timeout=httpx.Timeout(GUARD))
+
+
+@pytest.fixture(scope="module")
+def tls() -> tuple[ssl.SSLContext, ssl.SSLContext]:
+    """A certificate for 127.0.0.1 from a throwaway CA: (server context, client context)."""
+    ca = trustme.CA()
+    server, client = (
+        ssl.create_default_context(ssl.Purpose.CLIENT_AUTH),
+        ssl.create_default_context(),
+    )
+    ca.issue_cert("127.0.0.1").configure_cert(server)
+    ca.configure_trust(client)
+    return server, client
 
 
 def test_an_endless_body_is_cut_at_the_size_cap() -> None:
@@ -133,6 +155,27 @@ def test_trickled_headers_are_cut_at_the_deadline() -> None:
         with pytest.raises(DeadlinePassed, match=r"0\.5 s"):
             client(0.5).post(srv.url, content=b"{}")
         assert srv.next_end() == "hung up on"
+
+
+def test_trickled_headers_over_tls_are_cut_at_the_deadline(
+    tls: tuple[ssl.SSLContext, ssl.SSLContext],
+) -> None:
+    talk = trickle(b"HTTP/1.1 200 OK\r\n", then=b"X-Slow: a\r\n")
+    with raw_server(talk, tls=tls[0]) as srv:
+        with pytest.raises(DeadlinePassed, match=r"0\.5 s"):
+            client(0.5, verify=tls[1]).post(srv.url, content=b"{}")
+        assert srv.next_end() == "hung up on"
+
+
+def test_an_answer_over_tls_passes_intact(tls: tuple[ssl.SSLContext, ssl.SSLContext]) -> None:
+    body = b'{"ok": true}'
+
+    def talk(conn: socket.socket, stop: threading.Event) -> None:
+        conn.sendall(f"HTTP/1.1 200 OK\r\nContent-Length: {len(body)}\r\n\r\n".encode() + body)
+
+    with raw_server(talk, tls=tls[0]) as srv:
+        assert client(GUARD, verify=tls[1]).post(srv.url, content=b"{}").content == body
+        assert srv.next_end() == "finished"
 
 
 def test_an_answer_within_the_limits_passes_intact() -> None:

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import socket
+import ssl
 import threading
 from collections.abc import Iterator
 from typing import Any, cast
@@ -31,9 +32,12 @@ class BodyTooLarge(httpx.ReadError):
 
 
 class BoundedTransport(httpx.BaseTransport):
-    """Sends each request through ``inner`` within ``seconds``, reading at most ``max_bytes``."""
+    """Sends each request within ``seconds``, reading at most ``max_bytes`` of its answer;
+    ``verify``: TLS certificates checked against the system's roots, or this context's."""
 
-    def __init__(self, seconds: float, max_bytes: int) -> None:
+    def __init__(
+        self, seconds: float, max_bytes: int, *, verify: ssl.SSLContext | bool = True
+    ) -> None:
         if not seconds > 0:
             raise ValueError(f"seconds must be > 0, got {seconds}")
         if max_bytes < 1:
@@ -42,7 +46,7 @@ class BoundedTransport(httpx.BaseTransport):
         self.max_bytes = max_bytes
         # no connection kept alive: every request connects, so the watchdog sees its socket
         limits = httpx.Limits(max_keepalive_connections=0)
-        self._inner = httpx.HTTPTransport(limits=limits, retries=0)
+        self._inner = httpx.HTTPTransport(verify=verify, limits=limits, retries=0)
 
     def handle_request(self, request: httpx.Request) -> httpx.Response:
         watchdog = _Watchdog(self.seconds)
