@@ -209,10 +209,10 @@ def _sdk_client(base_url: str, key: str, timeout: float, max_bytes: int) -> Any:
         from llmpas.reasoning.backends.bounded_http import BoundedTransport
     except ImportError:
         raise LLMError(f"the openai package (3.x) is not installed: {INSTALL_HINT}") from None
-    limits = httpx2.Timeout(timeout)  # connect, write, each read: within the attempt's deadline
-    http = httpx2.Client(transport=BoundedTransport(timeout, max_bytes), timeout=limits)
+    waits = httpx2.Timeout(timeout)  # connect, write, each read: within the attempt's deadline
+    http = httpx2.Client(transport=BoundedTransport(timeout, max_bytes), timeout=waits)
     return openai.OpenAI(
-        base_url=base_url, api_key=key, max_retries=0, timeout=limits, http_client=http
+        base_url=base_url, api_key=key, max_retries=0, timeout=waits, http_client=http
     )
 
 
