@@ -1,9 +1,11 @@
 """An OpenAI-compatible chat-completions backend that treats the server as untrusted.
 
-The request goes out with ``http.client`` (standard library) rather than the ``openai`` SDK, so
-that every limit is ours: one deadline per attempt (connecting, sending, headers and body
-included, enforced by a watchdog that shuts the socket), a bound on the answer's size, and a
-strict check of the answer's shape. Whatever the server does (non-JSON, invalid UTF-8,
+The request goes through the ``openai`` SDK, but every limit is ours: the SDK's retries are off
+(ours retry only timeouts, connection errors, 5xx and 429) and it sends through a
+:class:`~llmpas.reasoning.backends.bounded_http.BoundedTransport`, which gives each attempt one
+deadline (connecting, sending, headers and body included, enforced by a watchdog that shuts the
+socket) and bounds the answer's size, error bodies included. The SDK never parses the answer: its
+raw JSON is checked strictly here. Whatever the server does (non-JSON, invalid UTF-8,
 ``{"choices": "nope"}``, 500s, a 401 echoing the ``Authorization`` header, a body that never
 ends), :meth:`OpenAIBackend.complete` returns a :class:`Response` or raises an
 :class:`LLMServerError` with one line naming the server (``host:port`` and the model); the API
@@ -12,14 +14,9 @@ key is redacted from every text that leaves this module (answers and error bodie
 
 from __future__ import annotations
 
-import contextlib
-import http.client
 import json
 import logging
 import os
-import socket
-import ssl
-import threading
 import time
 import urllib.parse
 from collections.abc import Callable, Mapping
@@ -34,8 +31,8 @@ log = logging.getLogger(__name__)
 LOCAL_DUMMY_KEY = "sk-local-no-key"  # local servers (llama.cpp, vLLM) accept any key
 DEFAULT_BASE_URL = "https://api.openai.com/v1"
 MAX_BYTES = 1 << 20  # an answer of max_tokens tokens is a few kB; 1 MiB is far beyond
-CHUNK = 1 << 16
 RETRYABLE = (Fault.TIMEOUT, Fault.CONNECTION)
+INSTALL_HINT = "pip install 'llmpas[llm]' (or pip install 'openai>=3,<4')"
 
 
 @dataclass(frozen=True)
@@ -113,6 +110,7 @@ class OpenAIBackend:
         self.endpoint = Endpoint.parse(url or DEFAULT_BASE_URL)
         self.base_url = self.endpoint.url
         self.server = f"{self.name} at {self.endpoint.hostport}"
+        self._client = _sdk_client(self.base_url, self._key, timeout, max_bytes)
 
     def __repr__(self) -> str:  # no key in here, ever
         return f"OpenAIBackend(model={self.model!r}, base_url={self.base_url!r})"
@@ -142,55 +140,32 @@ class OpenAIBackend:
         return LLMServerError(self.server, fault, one_line(self.redact(reason)), status)
 
     def _attempt(self, request: Request) -> Response:
-        body = json.dumps(self.create_kwargs(request)).encode("utf-8", "surrogatepass")
+        import httpx2
+        import openai
+
+        body = json.dumps(self.create_kwargs(request)).encode()  # ASCII: lone surrogates escaped
         start = time.perf_counter()
-        status, data = self._post(body)
-        latency = time.perf_counter() - start
-        if not 200 <= status < 300:
-            raise self._fail(Fault.HTTP, f"HTTP {status}{_error_detail(data)}", status)
-        return self._response(data, latency)
-
-    def _post(self, body: bytes) -> tuple[int, bytes]:
-        """POST ``body`` to ``/chat/completions``: (status, at most ``max_bytes`` of body)."""
-        ep = self.endpoint
-        conn: http.client.HTTPConnection
-        if ep.scheme == "https":
-            ctx = ssl.create_default_context()
-            conn = http.client.HTTPSConnection(ep.host, ep.port, timeout=self.timeout, context=ctx)
-        else:
-            conn = http.client.HTTPConnection(ep.host, ep.port, timeout=self.timeout)
-        headers = {
-            "Content-Type": "application/json",
-            "Accept": "application/json",
-            "Authorization": f"Bearer {self._key}",
-        }
-        watchdog = _Watchdog(self.timeout)
         try:
-            conn.connect()  # bounded by the socket timeout
-            watchdog.watch(conn.sock)  # kept: http.client drops conn.sock once it answers
-            conn.request("POST", f"{ep.path}/chat/completions", body, headers)
-            resp = conn.getresponse()
-            return resp.status, self._read(resp, watchdog.expired)
-        except (OSError, http.client.HTTPException, ValueError) as err:
-            if watchdog.expired.is_set() or isinstance(err, TimeoutError | socket.timeout):
-                raise self._fail(Fault.TIMEOUT, f"timed out after {self.timeout:g} s") from None
-            why = getattr(err, "strerror", None) or f"{type(err).__name__}: {err}"
-            raise self._fail(Fault.CONNECTION, f"connection failed: {why}") from None
-        finally:
-            watchdog.cancel()
-            conn.close()
+            answer = self._client.post("/chat/completions", cast_to=httpx2.Response, content=body)
+        except openai.APIStatusError as err:  # its body was read through the size cap
+            why = f"HTTP {err.status_code}{_error_detail(err.response.content)}"
+            raise self._fail(Fault.HTTP, why, err.status_code) from None
+        except openai.APIConnectionError as err:  # APITimeoutError included
+            raise self._transport_failure(err) from None
+        return self._response(answer.content, time.perf_counter() - start)
 
-    def _read(self, resp: http.client.HTTPResponse, expired: threading.Event) -> bytes:
-        chunks: list[bytes] = []
-        size = 0
-        while chunk := resp.read1(CHUNK):
-            size += len(chunk)
-            if size > self.max_bytes:
-                raise self._fail(Fault.TOO_LARGE, f"answer larger than {self.max_bytes} bytes")
-            chunks.append(chunk)
-        if expired.is_set():
-            raise TimeoutError
-        return b"".join(chunks)
+    def _transport_failure(self, err: Exception) -> LLMServerError:
+        from httpx2 import TimeoutException
+
+        from llmpas.reasoning.backends.bounded_http import BodyTooLarge
+
+        cause = err.__cause__
+        if isinstance(cause, BodyTooLarge):
+            return self._fail(Fault.TOO_LARGE, f"answer larger than {self.max_bytes} bytes")
+        if isinstance(cause, TimeoutException):
+            return self._fail(Fault.TIMEOUT, f"timed out after {self.timeout:g} s")
+        why = f"{type(cause).__name__}: {cause}" if cause is not None else str(err)
+        return self._fail(Fault.CONNECTION, f"connection failed: {why}")
 
     def _response(self, data: bytes, latency: float) -> Response:
         try:
@@ -225,30 +200,20 @@ class OpenAIBackend:
         return kwargs
 
 
-class _Watchdog:
-    """Shuts a socket down when an attempt's time is up, which unblocks whatever it waits for
-    (a server trickling its answer byte by byte never hits the per-read socket timeout)."""
+def _sdk_client(base_url: str, key: str, timeout: float, max_bytes: int) -> Any:
+    """The ``openai`` client: no retries of its own, every request through a bounded transport."""
+    try:
+        import httpx2
+        import openai
 
-    def __init__(self, seconds: float) -> None:
-        self.expired = threading.Event()
-        self._sock: socket.socket | None = None
-        self._timer = threading.Timer(seconds, self._shut)
-        self._timer.daemon = True
-        self._timer.start()
-
-    def watch(self, sock: socket.socket | None) -> None:
-        self._sock = sock
-        if self.expired.is_set():
-            self._shut()
-
-    def _shut(self) -> None:
-        self.expired.set()
-        if self._sock is not None:
-            with contextlib.suppress(OSError):
-                self._sock.shutdown(socket.SHUT_RDWR)
-
-    def cancel(self) -> None:
-        self._timer.cancel()
+        from llmpas.reasoning.backends.bounded_http import BoundedTransport
+    except ImportError:
+        raise LLMError(f"the openai package (3.x) is not installed: {INSTALL_HINT}") from None
+    waits = httpx2.Timeout(timeout)  # connect, write, each read: within the attempt's deadline
+    http = httpx2.Client(transport=BoundedTransport(timeout, max_bytes), timeout=waits)
+    return openai.OpenAI(
+        base_url=base_url, api_key=key, max_retries=0, timeout=waits, http_client=http
+    )
 
 
 def _resolve_key(api_key: str | None, base_url: str | None) -> str:
