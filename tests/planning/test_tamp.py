@@ -30,6 +30,7 @@ def make_problem(
     reach: Any = None,
     deferred_reach: bool = True,
     seed: int = 0,
+    reach_sampler: Any = None,
 ) -> Problem:
     rng = np.random.default_rng(seed)
 
@@ -57,7 +58,8 @@ def make_problem(
             "sample-pose": sampler(sample_pose, max_outputs=6),
             "test-cfree": test(cfree),
             "reach": sampler(
-                lambda b, p: iter([(reach or default_reach)(b, p)]), deferred=deferred_reach
+                reach_sampler or (lambda b, p: iter([(reach or default_reach)(b, p)])),
+                deferred=deferred_reach,
             ),
         },
     )
@@ -155,6 +157,24 @@ def test_slow_streams_end_in_timeout() -> None:
     assert time.perf_counter() - start < 5
 
 
+def test_a_sampler_yielding_only_none_ends_at_the_deadline() -> None:
+    def idle(b: str, p: float) -> Iterator[None]:
+        while True:  # "nothing this time", forever
+            yield None
+
+    problem = make_problem(WIDE, deferred_reach=False, reach_sampler=idle)
+    result = solve(problem, PlannerConfig(max_time=1.0))
+    assert result.status is PlanStatus.TIMEOUT
+    assert result.stats.stream_calls["reach"] >= 1
+
+
+def test_an_exceeded_max_time_returns_without_searching() -> None:
+    planner = ScriptedPlanner([])
+    result = solve(make_problem(WIDE), PlannerConfig(max_time=1e-9), classical=planner)
+    assert result.status is PlanStatus.TIMEOUT
+    assert planner.calls == []
+
+
 class ScriptedPlanner:
     """An in-memory classical planner that answers from a script (for the failure paths)."""
 
@@ -173,6 +193,7 @@ class ScriptedPlanner:
     ("status", "expected"),
     [
         (ClassicalStatus.TIMEOUT, PlanStatus.TIMEOUT),
+        (ClassicalStatus.CRASHED, PlanStatus.CRASHED),
         (ClassicalStatus.OUT_OF_MEMORY, PlanStatus.ERROR),
         (ClassicalStatus.ERROR, PlanStatus.ERROR),
     ],

@@ -34,6 +34,8 @@ from llmpas.language.semantics import Evaluator, State, Universe, nnf
 log = logging.getLogger(__name__)
 
 OPTIMISTIC_PREFIX = "#o"
+_END = object()  # sentinel: a stream's iterator is exhausted
+_IDLE = object()  # sentinel: a sampler yielded only None until the deadline
 
 
 def is_optimistic(name: str) -> bool:
@@ -50,7 +52,7 @@ class Record:
 
     bound: BoundStream
     inputs: tuple[str, ...]
-    iterator: Iterator[tuple[Any, ...]] | None = None
+    iterator: Iterator[tuple[Any, ...] | None] | None = None
     calls: int = 0
     outputs: list[tuple[str, ...]] = field(default_factory=list)
     exhausted: bool = False
@@ -114,6 +116,8 @@ class StreamStore:
             self.calls[rec.bound.schema.name] += 1
             rec.calls += 1
         schema = rec.bound.schema
+        if out is _IDLE:  # the sampler yielded only None until the deadline: not exhausted
+            return None
         if out is None:
             rec.exhausted = True
             if schema.is_test:
@@ -133,13 +137,22 @@ class StreamStore:
             rec.exhausted = True
         return names
 
-    def _next(self, rec: Record) -> tuple[Any, ...] | None:
+    def _next(self, rec: Record) -> Any:
+        """The next output tuple; None when exhausted; ``_IDLE`` when the sampler yielded only
+        ``None`` ("nothing this time") until the deadline, which is checked on every value."""
         if rec.iterator is None:
             values = tuple(self.values.get(n, n) for n in rec.inputs)
             fluents = self._fluents(rec.bound)
-            rec.iterator = rec.bound.outputs(values, fluents)
+            rec.iterator = rec.bound.samples(values, fluents)
         iterator = rec.iterator
-        return self._guard(rec, lambda: next(iterator, None))
+        while True:
+            item = self._guard(rec, lambda: next(iterator, _END))
+            if item is _END:
+                return None
+            if item is not None:
+                return item
+            if self.out_of_time():
+                return _IDLE
 
     def _guard(self, rec: Record, fn: Callable[[], Any]) -> Any:
         try:

@@ -299,7 +299,9 @@ def _search(
     if res.status is ClassicalStatus.UNSOLVABLE:
         return None
     if res.status is ClassicalStatus.TIMEOUT:
-        return run.result(PlanStatus.TIMEOUT, f"classical search: {res.message}")
+        return run.result(PlanStatus.TIMEOUT, f"classical planner: {res.message}")
+    if res.status is ClassicalStatus.CRASHED:
+        return run.result(PlanStatus.CRASHED, f"classical planner: {res.message}")
     return run.result(PlanStatus.ERROR, f"classical planner {res.status.value}: {res.message}")
 
 
