@@ -4,6 +4,13 @@
 record per stream instance (a stream applied to concrete inputs). :func:`optimistic_instances`
 computes the optimistic closure: every instance that could be applied, with placeholder outputs
 ``#oN`` standing for values not computed yet.
+
+Placeholders of streams evaluated while planning are *shared*, as in PDDLStream: every instance
+of one stream gets the same placeholder per output and level (level = 1 + the highest level of
+its inputs, real objects being level 0). The number of objects, and so the grounded task, stays
+small; a plan over shared placeholders is only optimistic and is planned again once the streams
+it relies on have produced real values. Placeholders of deferred streams stay unique per
+instance: they reach the executor, which must tell them apart.
 """
 
 from __future__ import annotations
@@ -72,6 +79,13 @@ class OptInstance:
     @property
     def key(self) -> tuple[str, tuple[str, ...]]:
         return self.stream.schema.name, self.inputs
+
+    @property
+    def domain(self) -> tuple[Atom, ...]:
+        """The stream's domain facts on these inputs (what the instance needs to apply)."""
+        schema = self.stream.schema
+        sub = Substitution(dict(zip(schema.inputs, self.inputs, strict=True)))
+        return tuple(sub.atom(a) for a in schema.domain)
 
 
 def rejected_predicate(pred: str) -> str:
@@ -213,26 +227,46 @@ def evaluate_negative_tests(store: StreamStore, streams: Iterable[BoundStream]) 
                 return
 
 
+class _Namer:
+    """Placeholder names: ``#oN``, one per (stream, output, level) for shared streams."""
+
+    def __init__(self, shared: Callable[[BoundStream], bool]) -> None:
+        self.shared = shared
+        self.counter = itertools.count(1)
+        self.names: dict[tuple[str, int, int], str] = {}
+
+    def outputs(self, bound: BoundStream, level: int) -> tuple[str, ...]:
+        n = len(bound.schema.outputs)
+        if not self.shared(bound):
+            return tuple(self._fresh() for _ in range(n))
+        keys = [(bound.schema.name, i, level) for i in range(n)]
+        return tuple(self.names.get(k) or self.names.setdefault(k, self._fresh()) for k in keys)
+
+    def _fresh(self) -> str:
+        return f"{OPTIMISTIC_PREFIX}{next(self.counter)}"
+
+
 def optimistic_instances(
     store: StreamStore,
     allowed: Callable[[BoundStream], bool],
     max_level: int,
     limit: int = 50_000,
+    shared: Callable[[BoundStream], bool] = lambda b: False,
 ) -> list[OptInstance]:
     """The optimistic closure of the real facts under the allowed, enabled, non-exhausted
-    instances."""
+    instances; streams for which ``shared`` holds share their placeholders (module docstring)."""
     facts = set(store.facts)
     level: dict[str, int] = {}
     seen: set[tuple[str, tuple[str, ...]]] = set()
     out: list[OptInstance] = []
-    counter = itertools.count(1)
+    namer = _Namer(shared)
     streams = [b for b in store.problem.bound_streams.values() if allowed(b)]
     changed = True
     while changed:
         changed = False
         state = State(facts)
         for bound in streams:
-            for inst in _new_instances(bound, state, store, seen, level, max_level, counter):
+            for inst in _new_instances(bound, state, store, seen, level, max_level, namer):
                 out.append(inst)
                 facts |= set(inst.certified)
                 changed = True
@@ -251,7 +285,7 @@ def _new_instances(
     seen: set[tuple[str, tuple[str, ...]]],
     level: dict[str, int],
     max_level: int,
-    counter: Iterator[int],
+    namer: _Namer,
 ) -> Iterator[OptInstance]:
     schema = bound.schema
     for env in list(join(schema.domain, state)):
@@ -266,7 +300,7 @@ def _new_instances(
         if lvl > max_level:
             continue
         seen.add(key)
-        outputs = tuple(f"{OPTIMISTIC_PREFIX}{next(counter)}" for _ in schema.outputs)
+        outputs = namer.outputs(bound, lvl)
         level.update(dict.fromkeys(outputs, lvl))
         sub = Substitution(dict(zip(schema.inputs + schema.outputs, inputs + outputs, strict=True)))
         certified = tuple(sub.atom(a) for a in schema.certified)

@@ -154,7 +154,9 @@ def _focused(run: _Run) -> PlanResult:
         evaluate_negative_tests(store, _negative_streams(run))
         if store.out_of_time():
             return run.result(PlanStatus.TIMEOUT, f"no plan within {run.config.max_time} s")
-        opt = optimistic_instances(store, run.instantiated, run.config.max_level)
+        opt = optimistic_instances(
+            store, run.instantiated, run.config.max_level, shared=lambda b: not run.deferred(b)
+        )
         found = _search(run, opt)
         if isinstance(found, PlanResult):
             return found
@@ -163,11 +165,11 @@ def _focused(run: _Run) -> PlanResult:
                 continue
             return run.result(PlanStatus.UNSOLVABLE, _unsolvable_message(run))
         actions, cost = found
-        per_step = _retrace(run, actions, opt)
+        per_step, trace = _retrace(run, actions, opt)
         needed = [i for insts in per_step for i in insts if not run.deferred(i.stream)]
         if not needed:
             return run.result(PlanStatus.SOLVED, "", _final_plan(run, actions, per_step, cost))
-        _evaluate(run, needed)
+        _evaluate(run, needed, trace)
     return run.result(
         PlanStatus.UNSOLVABLE, f"no plan after {run.config.max_iterations} iterations"
     )
@@ -192,19 +194,23 @@ def _reenable(store: StreamStore) -> bool:
     return bool(disabled)
 
 
-def _evaluate(run: _Run, needed: list[OptInstance]) -> None:
-    """Evaluate a stream plan in order; placeholders map to the real outputs as they come."""
+def _evaluate(run: _Run, needed: list[OptInstance], trace: _Trace) -> None:
+    """Evaluate a stream plan in order; each placeholder input takes the real output of the
+    producer the trace chose for it."""
     store = run.store
-    real: dict[str, str] = {}
+    real: dict[int, dict[str, str]] = {}  # id(evaluated instance) -> placeholder -> real name
     for inst in needed:
-        inputs = tuple(real.get(x, x) for x in inst.inputs)
+        sources = trace.sources.get(id(inst), {})
+        inputs = tuple(
+            real.get(id(sources[x]), {}).get(x, x) if x in sources else x for x in inst.inputs
+        )
         if any(is_optimistic(x) for x in inputs):
             continue  # its producer failed this time
         rec = store.record(inst.stream, inputs)
         out = store.call(rec)
         rec.enabled = False
         if out is not None:
-            real.update(zip(inst.outputs, out, strict=True))
+            real[id(inst)] = dict(zip(inst.outputs, out, strict=True))
         if store.out_of_time():
             return
 
@@ -226,7 +232,7 @@ def _incremental(run: _Run) -> PlanResult:
             return found
         if found is not None:
             actions, cost = found
-            per_step = _retrace(run, actions, opt)
+            per_step, _ = _retrace(run, actions, opt)
             return run.result(PlanStatus.SOLVED, "", _final_plan(run, actions, per_step, cost))
         level += 1
         if not _one_level(run):
@@ -308,46 +314,92 @@ def _search(
 # ---------------------------------------------------------------------------------- retrace
 
 
+class _Trace:
+    """Which optimistic instances a plan relies on, and which producer feeds each placeholder
+    input. Placeholders may be shared by several instances (see :mod:`instances`); the producer
+    of a placeholder is chosen from the facts its consumer needs: the instance most recently
+    chosen that certifies them, else the cheapest lowest-level one that does."""
+
+    def __init__(self, opt: list[OptInstance], real: set[Atom]) -> None:
+        ordered = sorted(opt, key=lambda i: (i.level, i.stream.info.expected_cost))
+        self.certifiers: dict[Atom, list[OptInstance]] = {}
+        self.first: dict[str, OptInstance] = {}
+        for i in ordered:
+            for o in i.outputs:
+                self.first.setdefault(o, i)
+            for a in i.certified:
+                if a not in real:
+                    self.certifiers.setdefault(a, []).append(i)
+        self.chosen: list[OptInstance] = []
+        self.sources: dict[int, dict[str, OptInstance]] = {}  # id(consumer) -> input -> producer
+
+    def step(self, facts: list[Atom], args: tuple[str, ...]) -> list[OptInstance]:
+        """Instances newly needed for a step's (or the goal's) facts and arguments, producers
+        first."""
+        out: list[OptInstance] = []
+        for a in facts:
+            if a in self.certifiers:
+                self._need(self._certifier(a, facts), out)
+        for x in args:
+            if x in self.first:
+                self._need(self._producer(x, facts), out)
+        return out
+
+    def _certifier(self, fact: Atom, context: list[Atom]) -> OptInstance:
+        for c in reversed(self.chosen):
+            if fact in c.certified:
+                return c
+        wanted = set(context)
+        candidates = self.certifiers[fact]
+        return max(candidates, key=lambda c: (len(wanted.intersection(c.certified)), -id_rank(c)))
+
+    def _producer(self, x: str, context: list[Atom]) -> OptInstance:
+        """The instance standing behind placeholder ``x`` where ``context`` is needed."""
+        mentioned = [a for a in context if x in a.args and a in self.certifiers]
+        for a in mentioned:
+            c = self._certifier(a, context)
+            if x in c.outputs:
+                return c
+        for c in reversed(self.chosen):
+            if x in c.outputs:
+                return c
+        return self.first[x]
+
+    def _need(self, inst: OptInstance, out: list[OptInstance]) -> None:
+        if any(c is inst for c in self.chosen):
+            return
+        self.chosen.append(inst)  # before its producers: guards against cycles
+        sources: dict[str, OptInstance] = {}
+        for x in inst.inputs:
+            if x in self.first:
+                sources[x] = producer = self._producer(x, list(inst.domain))
+                self._need(producer, out)
+        self.sources[id(inst)] = sources
+        out.append(inst)
+
+
+def id_rank(inst: OptInstance) -> int:
+    """Tie-break between equally good certifiers: the lower level, then the cheaper stream."""
+    return inst.level * 1_000_000 + round(inst.stream.info.expected_cost * 1000)
+
+
 def _retrace(
     run: _Run, actions: tuple[tuple[str, tuple[str, ...]], ...], opt: list[OptInstance]
-) -> list[list[OptInstance]]:
+) -> tuple[list[list[OptInstance]], _Trace]:
     """Per plan step (plus one last entry for the goal), the optimistic instances it relies on,
     producers first, each instance listed once (at its first use)."""
     store = run.store
-    producer = {o: i for i in opt for o in i.outputs}
-    by_fact: dict[Atom, OptInstance] = {}
-    for i in sorted(opt, key=lambda i: (i.level, i.stream.info.expected_cost)):
-        for a in i.certified:
-            if a not in store.facts:
-                by_fact.setdefault(a, i)
+    trace = _Trace(opt, store.facts)
     sem = Semantics(run.compiled.domain, _object_types(run, opt), run.costs)
-    init = store.facts | store.rejected | set(by_fact)
+    init = store.facts | store.rejected | set(trace.certifiers)
     support = preimage(sem, init, actions, run.problem.goal)
     if support is None:
         raise RuntimeError("the classical plan does not replay under the domain semantics")
-    done: set[int] = set()
     out: list[list[OptInstance]] = []
     for k, facts in enumerate(support):
-        mine: list[OptInstance] = []
-        wanted = [by_fact[a] for a in sorted(facts) if a in by_fact]
-        if k < len(actions):
-            wanted += [producer[x] for x in actions[k][1] if x in producer]
-        for inst in wanted:
-            _with_producers(inst, producer, done, mine)
-        out.append(mine)
-    return out
-
-
-def _with_producers(
-    inst: OptInstance, producer: dict[str, OptInstance], done: set[int], out: list[OptInstance]
-) -> None:
-    if id(inst) in done:
-        return
-    done.add(id(inst))
-    for x in inst.inputs:
-        if x in producer:
-            _with_producers(producer[x], producer, done, out)
-    out.append(inst)
+        args = actions[k][1] if k < len(actions) else ()
+        out.append(trace.step(sorted(facts), args))
+    return out, trace
 
 
 def _final_plan(
