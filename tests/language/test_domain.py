@@ -535,3 +535,26 @@ def test_written_formulas_read_back_identically(derived_body, precondition):
     assert again.derived == d.derived
     parsed = PDDL_PARSER(text)  # standard PDDL: the pddl package reads it too
     assert {a.name for a in parsed.actions} == {"act"}
+
+
+TEMPORAL = """(define (domain temporal)
+  (:requirements :strips {req})
+  (:predicates (at ?x))
+  (:durative-action go
+    :parameters (?x) :duration (= ?duration 1)
+    :condition (at start (at ?x)) :effect (at end (not (at ?x)))))"""
+
+
+@pytest.mark.parametrize(
+    ("req", "needle", "message"),
+    [
+        ("", "(:durative-action", "':durative-action' is not supported (temporal planning)"),
+        (":durative-actions", ":durative-actions", "requirement ':durative-actions' is not"),
+        (":timed-initial-literals", ":timed-initial", "requirement ':timed-initial-literals'"),
+    ],
+)
+def test_temporal_domains_get_one_line_naming_the_construct(req, needle, message):
+    text = TEMPORAL.format(req=req)
+    err = syntax_error(text)
+    assert (err.line, err.col) == where(text, needle)
+    assert err.message.startswith(message)

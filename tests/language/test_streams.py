@@ -204,9 +204,16 @@ def test_malformed_streams(body, message):
         ("(stream s)", "expected '(define (stream NAME) ...)'"),
         (
             "(define (stream s) (:predicate p :inputs (?x) :domain (P ?x)))",
-            "':predicate' streams are not supported; use a test stream",
+            "expected '(:predicate (NAME ?x ...) DOMAIN)'",
         ),
-        ("(define (stream s) (:rule (p)))", "expected ':stream' or ':function', found ':rule'"),
+        ("(define (stream s) (:predicate (P a) (Q a)))", "expected a '?variable' in"),
+        ("(define (stream s) (:predicate (P ?x ?y) (Q ?x)))", "stream 'p': input ?y does not"),
+        ("(define (stream s) (:rule (p)))", "expected a ':keyword' in ':rule' (rule-1)"),
+        (
+            "(define (stream s) (:rule :inputs (?x) :domain (P ?x) :outputs (?y)))",
+            "unknown keyword ':outputs' in ':rule' (rule-1)",
+        ),
+        ("(define (stream s) (:objective (p)))", "expected ':stream', ':function', ':predicate'"),
         ("(define (stream s) (:function (F ?x ?y) (P ?x)))", "function 'f': ?y does not occur"),
         ("(define (stream s) (:function (F) (P) (Q)))", "expected '(:function (NAME ?x ...)"),
         ("(define (stream s) (:stream))", "expected '(:stream NAME :inputs ... )'"),
@@ -240,3 +247,72 @@ def test_schema_checks_in_python():
     with pytest.raises(ModelError, match="declared twice"):
         s = StreamSchema("s", (), (), ("?y",), (Atom("q", ("?y",)),))
         StreamSpec("x", (s, s))
+
+
+# ------------------------------------------------------------- :predicate, :rule, unsupported
+
+KINDS = """(define (stream kinds)
+  (:rule :inputs (?q ?p) :domain (Kin ?q ?p) :certified (and (Conf ?q) (Pose ?p)))
+  (:rule :parameters (?q) :domain (Conf ?q) :certified (Config ?q))  ; :parameters: same
+  (:rule :inputs (?a ?b) :domain (and (Pose ?a) (Pose ?b)) :certified (Pair ?a ?b))
+  (:stream ik :inputs (?p) :domain (Pose ?p) :outputs (?q) :certified (Kin ?q ?p))
+  (:predicate (Collide ?p1 ?p2) (and (Pose ?p1) (Pose ?p2)))
+  ;(:predicate (Commented ?p) (Pose ?p))
+)"""
+
+
+def test_external_predicate_is_a_test_of_its_complement():
+    spec = parse_streams(KINDS, "k.pddl")
+    collide = spec.stream("collide")
+    assert collide.is_predicate and collide.is_test and not collide.is_rule
+    assert collide.inputs == ("?p1", "?p2")
+    assert collide.domain == (Atom("pose", ("?p1",)), Atom("pose", ("?p2",)))
+    assert collide.certified == (Atom("not__collide", ("?p1", "?p2")),)
+    assert spec.external_predicates == {"collide": "not__collide"}
+    assert "not__collide" in spec.test_predicates
+
+
+def test_rules_are_named_tests_and_single_atom_rules_fold_into_streams():
+    spec = parse_streams(KINDS, "k.pddl")
+    rules = [s for s in spec.streams if s.is_rule]
+    assert [r.name for r in rules] == ["rule-1", "rule-2", "rule-3"]
+    assert rules[1].inputs == ("?q",)  # ':parameters' read as ':inputs'
+    assert all(r.is_test for r in rules)
+    # rules never fail: their predicates get no rejections
+    assert spec.test_predicates == {"not__collide"}
+    # Kin -> Conf, Pose (rule 1), then Conf -> Config (rule 2, through rule 1); rule 3 has two
+    # domain atoms and is not folded
+    assert spec.stream("ik").certified == (
+        Atom("kin", ("?q", "?p")),
+        Atom("conf", ("?q",)),
+        Atom("pose", ("?p",)),
+        Atom("config", ("?q",)),
+    )
+    assert rules[0].certified == (Atom("conf", ("?q",)), Atom("pose", ("?p",)))
+
+
+def test_rule_folding_respects_constants_and_repeated_variables():
+    text = """(define (stream s)
+      (:rule :inputs (?x) :domain (Link ?x ?x) :certified (Loop ?x))
+      (:rule :inputs (?x) :domain (Link home ?x) :certified (FromHome ?x))
+      (:stream a :inputs (?p) :domain (P ?p) :outputs (?y) :certified (Link ?p ?y))
+      (:stream b :inputs (?p) :domain (P ?p) :outputs (?y) :certified (Link ?y ?y)))"""
+    spec = parse_streams(text)
+    assert spec.stream("a").certified == (Atom("link", ("?p", "?y")),)
+    assert spec.stream("b").certified == (Atom("link", ("?y", "?y")), Atom("loop", ("?y",)))
+
+
+@pytest.mark.parametrize(
+    ("text", "needle", "message"),
+    [
+        (
+            "(define (stream s)\n  (:optimizer gurobi\n    (:variables (?p) :inputs ())))",
+            "(:optimizer",
+            "':optimizer' is not supported",
+        ),
+    ],
+)
+def test_unsupported_stream_constructs_get_one_line_at_their_place(text, needle, message):
+    err = stream_error(text)
+    assert (err.line, err.col) == where(text, needle)
+    assert message in err.message

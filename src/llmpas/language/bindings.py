@@ -166,6 +166,29 @@ class BoundFunction:
         return x
 
 
+RULE_INFO = StreamInfo(overhead=0.0)
+
+
+def _always(*_: Any) -> bool:
+    return True
+
+
+@dataclass(frozen=True)
+class _Complement:
+    """An external predicate's implementation, as the test of its complement ``not__P``."""
+
+    fn: Callable[..., Any]
+    name: str
+
+    def __call__(self, *args: Any) -> bool:
+        result = self.fn(*args)
+        if not isinstance(result, bool | np.bool_ | int) and result is not None:
+            raise BindingError(
+                f"predicate {self.name!r} returned {type(result).__name__}, not bool"
+            )
+        return not result
+
+
 def _as_impl(obj: Any, name: str) -> Implementation:
     if isinstance(obj, Implementation):
         return obj
@@ -182,7 +205,7 @@ def bind(
 ) -> tuple[dict[str, BoundStream], dict[str, BoundFunction]]:
     """Match declarations to implementations by name; every one must have its partner."""
     impls = {k.lower(): v for k, v in implementations.items()}
-    declared = {s.name for s in spec.streams} | {f.name for f in spec.functions}
+    declared = {s.name for s in spec.streams if not s.is_rule} | {f.name for f in spec.functions}
     missing = sorted(declared - impls.keys())
     if missing:
         raise BindingError(
@@ -201,7 +224,12 @@ def bind(
         )
     streams: dict[str, BoundStream] = {}
     for s in spec.streams:
+        if s.is_rule:  # an axiom: always holds, costs nothing
+            streams[s.name] = BoundStream(s, Implementation(_always, Kind.TEST, RULE_INFO))
+            continue
         impl = _as_impl(impls[s.name], s.name)
+        if s.is_predicate:
+            impl = Implementation(_Complement(impl.fn, s.name), Kind.TEST, impl.info)
         if impl.kind is Kind.COST:
             raise BindingError(f"stream {s.name!r} is bound to a cost function")
         if s.name in overrides:

@@ -254,6 +254,16 @@ def parse_typed_list(items: Iterable[SExpr], what: str) -> tuple[Param, ...]:
     return tuple(out)
 
 
+UNSUPPORTED_REQUIREMENTS = frozenset(
+    {
+        ":durative-actions",
+        ":duration-inequalities",
+        ":continuous-effects",
+        ":timed-initial-literals",
+    }
+)
+
+
 @dataclass
 class _DomainReader:
     filename: str
@@ -272,7 +282,13 @@ class _DomainReader:
         key = s.head()
         body = s.items[1:]
         if key == ":requirements":
-            self.requirements = tuple(expect_sym(x, "a requirement").text for x in body)
+            reqs = [expect_sym(r, "a requirement") for r in body]
+            for r in reqs:
+                if r.text in UNSUPPORTED_REQUIREMENTS:
+                    raise r.pos.error(
+                        f"requirement '{r.text}' is not supported (temporal planning)"
+                    )
+            self.requirements = tuple(r.text for r in reqs)
         elif key == ":types":
             for p in parse_typed_list(body, ":types"):
                 self.types[p.name] = p.type
@@ -296,6 +312,8 @@ class _DomainReader:
             self.actions.append((s, s.pos))
         elif key == ":constraints":
             raise s.pos.error("':constraints' is not supported")
+        elif key == ":durative-action":
+            raise s.pos.error("':durative-action' is not supported (temporal planning)")
         else:
             raise s.pos.error(f"unknown domain section '{key}'")
 

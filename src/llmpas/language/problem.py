@@ -195,6 +195,8 @@ def known_predicates(domain: Domain, streams: StreamSpec) -> dict[str, int]:
     for n, arity in streams.certified_predicates.items():
         out.setdefault(n, arity)
     for s in streams.streams:
+        if s.is_predicate:  # an external predicate: its own name, the arity of its head
+            out.setdefault(s.name, len(s.inputs))
         for a in s.domain:
             out.setdefault(a.predicate, len(a.args))
     out["="] = 2
@@ -203,6 +205,7 @@ def known_predicates(domain: Domain, streams: StreamSpec) -> dict[str, int]:
 
 def _check_problem(p: Problem) -> None:
     certified = p.streams.certified_predicates
+    certified |= {s.name: len(s.inputs) for s in p.streams.streams if s.is_predicate}
     for pred, (arity, pos) in p.domain.undeclared.items():
         if pred not in certified:
             raise pos.error(f"predicate '{pred}' is neither declared nor certified by a stream")

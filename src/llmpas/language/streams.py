@@ -2,11 +2,26 @@
 
 A ``:stream`` with ``:outputs`` is a conditional sampler ψ = ⟨I, O, C, f⟩; one without is a
 test; a ``:function`` declares a numeric cost computed in Python.
+
+Two more kinds, with PDDLStream's meaning:
+
+- ``(:predicate (P ?x ...) DOMAIN)``: an external predicate computed in Python (a bool), evaluated
+  lazily and assumed *false* until evaluated (collision predicates, used as ``(not (P ...))``).
+  It is read as a test stream named ``P`` that certifies the complement ``not__P``: the planner
+  optimistically assumes ``(not (P ...))`` and evaluates the instances a plan relies on; a
+  positive ``(P ...)`` holds only where the implementation said True.
+- ``(:rule :inputs (?x ...) :domain ... :certified ...)`` (``:parameters`` is accepted for
+  ``:inputs``): an axiom over stream facts with no implementation, read as an always-true test
+  named ``rule-N``. A rule with a single ``:domain`` atom is also folded into the certified facts
+  of every stream that certifies that atom, as PDDLStream does, so no planning iteration is spent
+  on it.
+
+``:optimizer`` is refused with one line naming it.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from llmpas.language.errors import ModelError
@@ -31,8 +46,11 @@ class StreamSchema:
     outputs: tuple[str, ...]
     certified: tuple[Atom, ...]
     fluents: tuple[str, ...] = ()
+    kind: str = "stream"  # "stream", "rule" (no implementation) or "predicate" (external P)
 
     def __post_init__(self) -> None:
+        if self.kind not in STREAM_KINDS:
+            raise ModelError(f"stream {self.name!r}: unknown kind {self.kind!r}")
         names = self.inputs + self.outputs
         if len(set(names)) != len(names):
             raise ModelError(f"stream {self.name!r}: a variable is both input and output, or twice")
@@ -52,6 +70,23 @@ class StreamSchema:
     @property
     def is_test(self) -> bool:
         return not self.outputs
+
+    @property
+    def is_rule(self) -> bool:
+        return self.kind == "rule"
+
+    @property
+    def is_predicate(self) -> bool:
+        return self.kind == "predicate"
+
+
+STREAM_KINDS = ("stream", "rule", "predicate")
+EXTERNAL_PREFIX = "not__"
+
+
+def complement(predicate: str) -> str:
+    """The certified predicate of an external ``:predicate`` P: ``not__P``."""
+    return f"{EXTERNAL_PREFIX}{predicate}"
 
 
 @dataclass(frozen=True)
@@ -86,6 +121,18 @@ class StreamSpec:
         raise ModelError(f"{self.filename}: unknown stream {name!r}")
 
     @property
+    def external_predicates(self) -> dict[str, str]:
+        """``:predicate`` P -> its complement ``not__P`` (what its test stream certifies)."""
+        return {s.name: s.certified[0].predicate for s in self.streams if s.is_predicate}
+
+    @property
+    def test_predicates(self) -> set[str]:
+        """Predicates certified by tests that can fail (rules cannot): those with rejections."""
+        return {
+            a.predicate for s in self.streams if s.is_test and not s.is_rule for a in s.certified
+        }
+
+    @property
     def certified_predicates(self) -> dict[str, int]:
         out: dict[str, int] = {}
         for s in self.streams:
@@ -114,11 +161,18 @@ def parse_streams(text: str, filename: str = "<stream>") -> StreamSpec:
         elif head == ":function":
             functions.append(_function(s))
         elif head == ":predicate":
-            raise s.pos.error("':predicate' streams are not supported; use a test stream")
+            streams.append(_predicate(s))
+        elif head == ":rule":
+            rules = sum(x.is_rule for x in streams)
+            streams.append(_stream(s, f"rule-{rules + 1}"))
+        elif head in UNSUPPORTED:
+            raise s.pos.error(f"'{head}' is not supported ({UNSUPPORTED[head]})")
         else:
-            raise s.pos.error(f"expected ':stream' or ':function', found '{head}'")
+            raise s.pos.error(
+                f"expected ':stream', ':function', ':predicate' or ':rule', found '{head}'"
+            )
     try:
-        return StreamSpec(name, tuple(streams), tuple(functions), filename)
+        return StreamSpec(name, fold_rules(streams), tuple(functions), filename)
     except ModelError as e:
         raise root.pos.error(str(e).removeprefix(f"{filename}: ")) from None
 
@@ -150,21 +204,30 @@ def _vars(e: SExpr, what: str) -> tuple[str, ...]:
     return tuple(out)
 
 
-def _stream(s: SList) -> StreamSchema:
-    if len(s) < 2:
+UNSUPPORTED = {":optimizer": "PDDLStream's optimizers; declare a ':stream' instead"}
+
+
+def _stream(s: SList, rule: str = "") -> StreamSchema:
+    """A ``:stream``, or (with ``rule`` its generated name) a ``:rule``."""
+    if rule:
+        name, items, what = rule, s.items[1:], f"':rule' ({rule})"
+    elif len(s) < 2:
         raise s.pos.error("expected '(:stream NAME :inputs ... )'")
-    name = expect_sym(s[1], "a stream name").text
+    else:
+        name = expect_sym(s[1], "a stream name").text
+        items, what = s.items[2:], f"stream '{name}'"
     fields: dict[str, tuple[Sym, SExpr]] = {}
-    for key, vals in keyword_sections(s.items[2:], f"stream '{name}'"):
+    for key, vals in keyword_sections(items, what):
         if len(vals) != 1:
-            raise key.pos.error(f"'{key.text}' takes exactly one value in stream '{name}'")
-        if key.text in fields:
-            raise key.pos.error(f"'{key.text}' given twice in stream '{name}'")
-        fields[key.text] = (key, vals[0])
-    known = {":inputs", ":domain", ":outputs", ":certified", ":fluents"}
+            raise key.pos.error(f"'{key.text}' takes exactly one value in {what}")
+        k = ":inputs" if rule and key.text == ":parameters" else key.text
+        if k in fields:
+            raise key.pos.error(f"'{key.text}' given twice in {what}")
+        fields[k] = (key, vals[0])
+    known = {":inputs", ":domain", ":certified"} | (set() if rule else {":outputs", ":fluents"})
     for k, (key, _) in fields.items():
         if k not in known:
-            raise key.pos.error(f"unknown keyword '{k}' in stream '{name}'")
+            raise key.pos.error(f"unknown keyword '{key.text}' in {what}")
 
     def get(k: str) -> SExpr | None:
         return fields[k][1] if k in fields else None
@@ -182,9 +245,69 @@ def _stream(s: SList) -> StreamSchema:
         tuple(expect_sym(x, "a predicate").text for x in expect_list(fl, ":fluents")) if fl else ()
     )
     try:
-        return StreamSchema(name, inputs, domain, outputs, certified, fluents)
+        return StreamSchema(
+            name, inputs, domain, outputs, certified, fluents, "rule" if rule else "stream"
+        )
     except ModelError as e:
         raise s.pos.error(str(e)) from None
+
+
+def _predicate(s: SList) -> StreamSchema:
+    """``(:predicate (P ?x ...) DOMAIN)``: a test stream named P certifying ``(not__P ?x ...)``."""
+    if len(s) not in (2, 3):
+        raise s.pos.error("expected '(:predicate (NAME ?x ...) DOMAIN)'")
+    head = _atom(expect_list(s[1], "a predicate head"), ":predicate")
+    for v in head.args:
+        if not v.startswith("?"):
+            raise s[1].pos.error(f"expected a '?variable' in ':predicate', found '{v}'")
+    domain = _atoms(s[2], ":predicate domain") if len(s) == 3 else ()
+    try:
+        return StreamSchema(
+            head.predicate,
+            head.args,
+            domain,
+            (),
+            (Atom(complement(head.predicate), head.args),),
+            kind="predicate",
+        )
+    except ModelError as e:
+        raise s.pos.error(str(e)) from None
+
+
+def fold_rules(streams: list[StreamSchema]) -> tuple[StreamSchema, ...]:
+    """Add the certified facts of every single-atom rule to the streams that certify its atom
+    (repeatedly, so rules feed rules); the rules stay, for facts from init."""
+    out = list(streams)
+    changed = True
+    while changed:
+        changed = False
+        for rule in (r for r in out if r.is_rule and len(r.domain) == 1):
+            (pattern,) = rule.domain
+            for i, st in enumerate(out):
+                new = _implied(rule, pattern, st)
+                if new:
+                    out[i] = replace(st, certified=st.certified + new)
+                    changed = True
+    return tuple(out)
+
+
+def _implied(rule: StreamSchema, pattern: Atom, st: StreamSchema) -> tuple[Atom, ...]:
+    """What ``rule`` adds to ``st``'s certified facts (none for rules and external predicates)."""
+    if st.kind != "stream":
+        return ()
+    new: list[Atom] = []
+    for a in st.certified:
+        if a.predicate != pattern.predicate or len(a.args) != len(pattern.args):
+            continue
+        env: dict[str, str] = {}
+        pairs = zip(pattern.args, a.args, strict=True)
+        if any((env.setdefault(v, t) if v.startswith("?") else v) != t for v, t in pairs):
+            continue
+        for c in rule.certified:
+            atom = Atom(c.predicate, tuple(env.get(t, t) for t in c.args))
+            if atom not in st.certified and atom not in new:
+                new.append(atom)
+    return tuple(new)
 
 
 def _function(s: SList) -> FunctionSchema:
@@ -205,7 +328,9 @@ __all__ = [
     "Pos",
     "StreamSchema",
     "StreamSpec",
+    "complement",
     "conjuncts",
+    "fold_rules",
     "parse_streams",
     "read_streams",
 ]

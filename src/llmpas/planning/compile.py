@@ -7,7 +7,8 @@ optimistic facts a plan relies on is found afterwards from its preimage
 commutative orderings make the search space explode).
 
 Negated atoms of test streams are rewritten to ``rejected__P`` facts: true only for bindings a test
-has rejected (before a test is evaluated it is optimistically assumed to pass).
+has rejected (before a test is evaluated it is optimistically assumed to pass). ``rejected__P`` is
+declared for every test predicate, and a task's init keeps only the rejections the domain reads.
 Fast Downward wants integer costs: every cost is multiplied by ``COST_SCALE`` and rounded.
 """
 
@@ -41,6 +42,7 @@ from llmpas.language.logic import (
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import State, nnf
 from llmpas.language.streams import StreamSchema
+from llmpas.planning.externals import external_rewrite
 from llmpas.planning.instances import (
     OptInstance,
     StreamFailure,
@@ -52,13 +54,18 @@ from llmpas.planning.instances import (
 COST_SCALE = 100
 
 
+def is_rejection(a: Atom) -> bool:
+    return a.predicate.startswith(rejected_predicate(""))
+
+
 def _scaled(x: float) -> int:
     return max(0, round(x * COST_SCALE))
 
 
-def _rewrite(f: Formula, negative_tests: set[str]) -> Formula:
-    """NNF, with ``(not (P ...))`` of a test predicate P replaced by ``(rejected__P ...)``."""
-    return _rw(nnf(f), negative_tests)
+def _rewrite(f: Formula, negative_tests: set[str], external: Mapping[str, str]) -> Formula:
+    """NNF, with ``(not (P ...))`` of a test predicate P replaced by ``(rejected__P ...)``
+    (after external predicates were replaced by their complements)."""
+    return _rw(nnf(external_rewrite(f, external)), negative_tests)
 
 
 def _rw(f: Formula, neg: set[str]) -> Formula:
@@ -76,14 +83,16 @@ def _rw(f: Formula, neg: set[str]) -> Formula:
     return f
 
 
-def _effects(effects: tuple[EffectItem, ...], neg: set[str], unit: bool) -> tuple[EffectItem, ...]:
+def _effects(
+    effects: tuple[EffectItem, ...], neg: set[str], ext: Mapping[str, str], unit: bool
+) -> tuple[EffectItem, ...]:
     out: list[EffectItem] = []
     for e in effects:
         match e:
             case When(cond, effs):
-                out.append(When(_rewrite(cond, neg), _effects(effs, neg, False)))
+                out.append(When(_rewrite(cond, neg, ext), _effects(effs, neg, ext, False)))
             case ForallEffect(ps, effs):
-                out.append(ForallEffect(ps, _effects(effs, neg, False)))
+                out.append(ForallEffect(ps, _effects(effs, neg, ext, False)))
             case Increase(float() | int() as x):
                 out.append(Increase(float(_scaled(x))))
             case _:
@@ -225,6 +234,7 @@ def compile_domain(
     unit = not d.uses_costs()
     schemas = [problem.bound_streams[n].schema for n in sorted(inline)]
     inlined: dict[str, tuple[tuple[Param, ...], tuple[Inlined, ...]]] = {}
+    ext = problem.streams.external_predicates
     actions = []
     for a in d.actions:
         new, uses = _inline(a, schemas)
@@ -233,14 +243,18 @@ def compile_domain(
         actions.append(
             replace(
                 new,
-                precondition=_rewrite(new.precondition, negative_tests),
-                effects=_effects(new.effects, negative_tests, unit),
+                precondition=_rewrite(new.precondition, negative_tests, ext),
+                effects=_effects(new.effects, negative_tests, ext, unit),
             )
         )
-    derived = tuple(replace(x, body=_rewrite(x.body, negative_tests)) for x in d.derived)
+    derived = tuple(replace(x, body=_rewrite(x.body, negative_tests, ext)) for x in d.derived)
     certified = problem.streams.certified_predicates
     preds = [Signature(name, _vars(arity)) for name, arity in certified.items()]
-    preds += [Signature(rejected_predicate(p), _vars(certified[p])) for p in sorted(negative_tests)]
+    # every test's rejections are declared, however (or whether) the domain uses its predicate
+    preds += [
+        Signature(rejected_predicate(p), _vars(certified[p]))
+        for p in sorted(problem.streams.test_predicates)
+    ]
     out = replace(d, actions=tuple(actions), derived=derived, undeclared={}).with_additions(
         predicates=preds
     )
@@ -306,7 +320,9 @@ def compile_task(
     object_types: Mapping[str, str],
     negative_tests: set[str],
 ) -> Task:
-    init = set(facts) | {a for i in optimistic for a in i.certified}
+    wanted = {rejected_predicate(p) for p in negative_tests}
+    init = {a for a in facts if a.predicate in wanted or not is_rejection(a)}
+    init |= {a for i in optimistic for a in i.certified}
     objects = dict(object_types)
     for a in init:
         for t in a.args:
@@ -320,7 +336,7 @@ def compile_task(
     init_text = [str(a) for a in sorted(init)]
     init_text.append("(= (total-cost) 0)")  # compile_domain gives every action a cost
     init_text += [f"(= {t} {_scaled(v)})" for t, v in sorted(costs.items(), key=str)]
-    goal = _rewrite(problem.goal, negative_tests)
+    goal = _rewrite(problem.goal, negative_tests, problem.streams.external_predicates)
     text = (
         f"(define (problem {problem.name})\n  (:domain {problem.domain.name})\n"
         f"  (:objects {obj_text})\n  (:init\n    " + "\n    ".join(init_text) + ")\n"

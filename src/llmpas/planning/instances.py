@@ -37,6 +37,7 @@ from llmpas.language.logic import (
 )
 from llmpas.language.problem import Problem, ValueNamer
 from llmpas.language.semantics import Evaluator, State, Universe, nnf
+from llmpas.planning.externals import external_rewrite
 
 log = logging.getLogger(__name__)
 
@@ -192,13 +193,15 @@ class StreamStore:
 
 def negative_test_predicates(problem: Problem) -> set[str]:
     """Predicates certified by test streams that occur negated in the domain or goal."""
-    tests = {a.predicate for s in problem.streams.streams if s.is_test for a in s.certified}
+    tests = problem.streams.test_predicates
     formulas: list[Formula] = [problem.goal]
     formulas += [a.precondition for a in problem.domain.actions]
     formulas += [d.body for d in problem.domain.derived]
+    external = problem.streams.external_predicates
     found: set[str] = set()
     for f in formulas:
-        found |= {a.predicate for a in _negated_atoms(nnf(f))} & tests
+        g = nnf(external_rewrite(f, external))
+        found |= {a.predicate for a in _negated_atoms(g)} & tests
     return found
 
 
