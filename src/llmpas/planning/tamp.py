@@ -40,6 +40,7 @@ from llmpas.planning.downward import (
     FastDownward,
     PlannerNotFound,
 )
+from llmpas.planning.guards import guard_quantifiers
 from llmpas.planning.instances import (
     OptInstance,
     StreamFailure,
@@ -75,6 +76,7 @@ class _Run:
     assumed: frozenset[str]  # deferred streams: assumed, never evaluated here
     started: float
     inline: frozenset[str] = frozenset()  # deferred streams compiled into the actions
+    domain_text: str = ""  # what the classical planner gets (quantifiers guarded)
     iterations: int = 0
     translate_time: float = 0.0
     search_time: float = 0.0
@@ -134,6 +136,7 @@ def solve(
         started,
         inline=inline,
     )
+    run.domain_text = guard_quantifiers(run.compiled.domain).to_pddl()
     try:
         if config.algorithm == "incremental":
             return _incremental(run)
@@ -294,7 +297,7 @@ def _search(
     budget = min(run.config.search_time, run.remaining())
     if budget <= 0:
         return run.result(PlanStatus.TIMEOUT, f"no plan within {run.config.max_time} s")
-    res: ClassicalPlan = run.classical.solve(run.compiled.text, task.problem_text, max_time=budget)
+    res: ClassicalPlan = run.classical.solve(run.domain_text, task.problem_text, max_time=budget)
     run.translate_time += res.translate_time
     run.search_time += res.search_time
     log.debug(
