@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -12,6 +13,7 @@ import pytest
 
 from llmpas.language.bindings import sampler, test
 from llmpas.language.domain import read_domain
+from llmpas.language.logic import Atom
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics, replay
 from llmpas.language.streams import read_streams
@@ -216,6 +218,45 @@ def test_classical_task_assumes_optimistic_facts_with_placeholders() -> None:
     assert "(contained b0 #o" in problem and "(reach b0 v0 #o" in problem
     assert "rejected__cfree" in domain  # the negated collision test is rewritten
     assert "(cfree b0 v0 b1 v1)" in problem  # real bindings of the negative test: evaluated
+
+
+def _placeholders(problem_pddl: str) -> set[str]:
+    return set(re.findall(r"#o\d+", problem_pddl))
+
+
+def test_placeholders_are_shared_per_stream_output_and_level() -> None:
+    # 5 blocks x 2 regions: 10 sample-pose instances, and reach / cfree instances on their
+    # outputs; evaluated streams share one placeholder per (stream, output, level)
+    planner = ScriptedPlanner([ClassicalPlan(ClassicalStatus.ERROR, (), None, 0.0, 0.0, "x")])
+    problem = make_problem(WIDE, n_blocks=5, deferred_reach=False)
+    solve(problem, PlannerConfig(max_level=2), classical=planner)
+    shared = _placeholders(planner.calls[0][1])
+    # sample-pose at level 1; reach at levels 1 (real poses) and 2 (placeholder poses)
+    assert len(shared) == 3
+    assert "(pose b0 #o1)" in planner.calls[0][1] and "(pose b4 #o1)" in planner.calls[0][1]
+
+
+def test_deferred_placeholders_stay_one_per_instance() -> None:
+    planner = ScriptedPlanner([ClassicalPlan(ClassicalStatus.ERROR, (), None, 0.0, 0.0, "x")])
+    problem = make_problem(WIDE, n_blocks=5, deferred_reach=True)
+    solve(problem, PlannerConfig(max_level=2), classical=planner)
+    reach = re.findall(r"\(reach (\S+) (\S+) (#o\d+)\)", planner.calls[0][1])
+    assert len(reach) > 5
+    assert len({q for _, _, q in reach}) == len(reach)  # one output per reach instance
+
+
+def test_consumers_of_a_shared_placeholder_get_their_own_producers_value() -> None:
+    regions = {"r1": (0.0, 3.0), "r2": (5.0, 11.0)}
+    problem = make_problem(regions, n_blocks=3, n_goal=3, deferred_reach=False)
+    result = solve(problem, PlannerConfig(max_time=60))
+    assert result.plan is not None
+    facts = set(problem.init) | result.plan.certified
+    reach = [a for a in facts if a.predicate == "reach"]
+    assert len(reach) >= 3
+    for a in reach:  # reach(b, p) was called on a pose sampled for b itself
+        block, pose, _ = a.args
+        assert Atom("pose", (block, pose)) in facts
+    assert replays(problem, result)
 
 
 def test_evaluates_only_what_the_plan_relies_on() -> None:
