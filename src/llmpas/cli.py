@@ -236,7 +236,17 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     pe.set_defaults(handler=_cmd_bench_perturbation)
     _add_bench_blocksworld(bsub)
     _add_bench_prompting(bsub)
+    _add_bench_tamp(bsub)
     _add_bench_all(bsub)
+
+
+def _add_bench_tamp(bsub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """``llmpas bench tamp``: planning CPU on the pds-tamp2d families, computed vs deferred."""
+    from llmpas.experiments import tamp
+
+    p = bsub.add_parser("tamp", help="2-D continuous TAMP (mirror, packed): computed vs deferred")
+    tamp.add_arguments(p)
+    p.set_defaults(handler=_one_line_errors(tamp.command))
 
 
 def _add_bench_all(bsub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

@@ -23,7 +23,7 @@ def test_every_step_is_a_bench_command_the_cli_accepts(tmp_path: Path) -> None:
     for quick in (False, True):
         steps = plan_steps(AllConfig(llm="openai:m", quick=quick, out_dir=tmp_path))
         names = [s.name for s in steps]
-        assert names[-4:] == ["planning-time", "perturbation", "prompting", "blocksworld"]
+        assert names[-5:] == ["planning-time", "tamp", "perturbation", "prompting", "blocksworld"]
         assert ("validate-data" in names) is not quick
         for step in steps:
             args = parser.parse_args(step.argv)  # exits (fails the test) on a wrong option
@@ -56,8 +56,15 @@ def test_a_failing_step_is_reported_and_the_others_still_run(tmp_path: Path) -> 
 
     config = AllConfig(llm="oracle", out_dir=tmp_path)
     outcomes = run_all(config, run, quiet())
-    assert ran == ["validate-data", "planning-time", "perturbation", "prompting", "blocksworld"]
-    assert [o.status for o in outcomes] == [0, 0, 1, 0, 2]
+    assert ran == [
+        "validate-data",
+        "planning-time",
+        "tamp",
+        "perturbation",
+        "prompting",
+        "blocksworld",
+    ]
+    assert [o.status for o in outcomes] == [0, 0, 0, 1, 0, 2]
     summary = (tmp_path / "summary.md").read_text()
     assert "| perturbation | failed (exit 1) |" in summary
     assert "| blocksworld | failed (exit 2) |" in summary
@@ -74,6 +81,6 @@ def test_bad_settings_are_one_line_errors(capsys: pytest.CaptureFixture[str]) ->
 @pytest.mark.slow
 def test_quick_slice_with_the_oracle_writes_every_table(tmp_path: Path) -> None:
     assert main(["bench", "all", "--llm", "oracle", "--quick", "--out", str(tmp_path)]) == 0
-    for name in ("planning-time", "perturbation", "prompting", "blocksworld"):
+    for name in ("planning-time", "tamp", "perturbation", "prompting", "blocksworld"):
         assert list((tmp_path / name).glob("*.md")), name
     assert "| prompting | ok |" in (tmp_path / "summary.md").read_text()

@@ -80,6 +80,7 @@ def plan_steps(config: AllConfig) -> tuple[Step, ...]:
             "planning-time",
             *(("--examples", "tamp2d", "--sizes", "2", "3", "--trials", "1") if quick else ()),
         ),
+        step("tamp", *(("--sizes", "1", "--trials", "1") if quick else ())),
         step("perturbation", "--episodes", "6" if quick else "200", *jobs),
         step(
             "prompting",
