@@ -333,7 +333,8 @@ class _Trace:
             for a in i.certified:
                 if a not in real:
                     self.certifiers.setdefault(a, []).append(i)
-        self.chosen: list[OptInstance] = []
+        self.chosen: list[OptInstance] = []  # in the order first needed
+        self._chosen_ids: set[int] = set()
         self.sources: dict[int, dict[str, OptInstance]] = {}  # id(consumer) -> input -> producer
 
     def step(self, facts: list[Atom], args: tuple[str, ...]) -> list[OptInstance]:
@@ -353,8 +354,8 @@ class _Trace:
             if fact in c.certified:
                 return c
         wanted = set(context)
-        candidates = self.certifiers[fact]
-        return max(candidates, key=lambda c: (len(wanted.intersection(c.certified)), -id_rank(c)))
+        # the one certifying most of the context; ties: the first (lowest level, cheapest)
+        return max(self.certifiers[fact], key=lambda c: len(wanted.intersection(c.certified)))
 
     def _producer(self, x: str, context: list[Atom]) -> OptInstance:
         """The instance standing behind placeholder ``x`` where ``context`` is needed."""
@@ -369,9 +370,10 @@ class _Trace:
         return self.first[x]
 
     def _need(self, inst: OptInstance, out: list[OptInstance]) -> None:
-        if any(c is inst for c in self.chosen):
+        if id(inst) in self._chosen_ids:
             return
         self.chosen.append(inst)  # before its producers: guards against cycles
+        self._chosen_ids.add(id(inst))
         sources: dict[str, OptInstance] = {}
         for x in inst.inputs:
             if x in self.first:
@@ -379,11 +381,6 @@ class _Trace:
                 self._need(producer, out)
         self.sources[id(inst)] = sources
         out.append(inst)
-
-
-def id_rank(inst: OptInstance) -> int:
-    """Tie-break between equally good certifiers: the lower level, then the cheaper stream."""
-    return inst.level * 1_000_000 + round(inst.stream.info.expected_cost * 1000)
 
 
 def _retrace(
