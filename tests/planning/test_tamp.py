@@ -18,7 +18,7 @@ from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics, replay
 from llmpas.language.streams import read_streams
 from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, solve
-from llmpas.planning.downward import ClassicalPlan, ClassicalStatus
+from llmpas.planning.downward import ClassicalPlan, ClassicalStatus, FastDownward
 
 DATA = Path(__file__).parent / "data"
 ALGORITHMS = ("focused", "incremental")
@@ -256,6 +256,25 @@ def test_consumers_of_a_shared_placeholder_get_their_own_producers_value() -> No
     for a in reach:  # reach(b, p) was called on a pose sampled for b itself
         block, pose, _ = a.args
         assert Atom("pose", (block, pose)) in facts
+    assert replays(problem, result)
+
+
+def test_a_plan_whose_streams_all_succeed_is_kept_without_searching_again() -> None:
+    class Counting(FastDownward):
+        calls = 0
+
+        def solve(
+            self, domain_pddl: str, problem_pddl: str, *, max_time: float | None = None
+        ) -> ClassicalPlan:
+            Counting.calls += 1
+            return super().solve(domain_pddl, problem_pddl, max_time=max_time)
+
+    problem = make_problem(WIDE, n_blocks=2, n_goal=2, deferred_reach=False)
+    result = solve(problem, PlannerConfig(max_time=60), classical=Counting())
+    assert result.plan is not None
+    # the last iteration found the evaluated plan valid with the real values: no search
+    assert Counting.calls == result.stats.iterations - 1
+    assert all(not a.startswith("#") for s in result.plan.steps for a in s.args)
     assert replays(problem, result)
 
 

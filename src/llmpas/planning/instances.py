@@ -23,7 +23,7 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
-from llmpas.language.bindings import BoundStream
+from llmpas.language.bindings import BoundStream, Kind
 from llmpas.language.domain import Domain
 from llmpas.language.logic import (
     And,
@@ -148,7 +148,8 @@ class StreamStore:
             dict(zip(schema.inputs + schema.outputs, rec.inputs + names, strict=True))
         )
         self.facts |= {sub.atom(a) for a in schema.certified}
-        if schema.is_test or rec.calls >= rec.bound.info.max_outputs:
+        single = rec.bound.impl.kind is Kind.FUNCTION  # a function has one output at most
+        if schema.is_test or single or rec.calls >= rec.bound.info.max_outputs:
             rec.exhausted = True
         return names
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 from llmpas.language.bindings import BoundStream
 from llmpas.language.logic import Atom, FuncTerm, Substitution
 from llmpas.language.problem import Problem
-from llmpas.language.semantics import Semantics, State, preimage
+from llmpas.language.semantics import Semantics, State, preimage, replay
 from llmpas.planning.compile import (
     COST_SCALE,
     CompiledDomain,
@@ -152,6 +152,7 @@ def solve(
 
 def _focused(run: _Run) -> PlanResult:
     store = run.store
+    evaluated: _Evaluated | None = None  # the last plan whose streams were evaluated
     while run.iterations < run.config.max_iterations:
         run.iterations += 1
         evaluate_negative_tests(store, _negative_streams(run))
@@ -160,6 +161,11 @@ def _focused(run: _Run) -> PlanResult:
         opt = optimistic_instances(
             store, run.instantiated, run.config.max_level, shared=lambda b: not run.deferred(b)
         )
+        _update_costs(run, opt)
+        if evaluated is not None:
+            realized = _realize(run, evaluated, opt)
+            if realized is not None:
+                return run.result(PlanStatus.SOLVED, "", realized)
         found = _search(run, opt)
         if isinstance(found, PlanResult):
             return found
@@ -168,11 +174,12 @@ def _focused(run: _Run) -> PlanResult:
                 continue
             return run.result(PlanStatus.UNSOLVABLE, _unsolvable_message(run))
         actions, cost = found
-        per_step, trace = _retrace(run, actions, opt)
+        per_step, trace = _replayed(_retrace(run, actions, opt))
         needed = [i for insts in per_step for i in insts if not run.deferred(i.stream)]
         if not needed:
             return run.result(PlanStatus.SOLVED, "", _final_plan(run, actions, per_step, cost))
-        _evaluate(run, needed, trace)
+        real = _evaluate(run, needed, trace)
+        evaluated = _Evaluated(actions, [i for insts in per_step for i in insts], trace, real)
     return run.result(
         PlanStatus.UNSOLVABLE, f"no plan after {run.config.max_iterations} iterations"
     )
@@ -197,9 +204,10 @@ def _reenable(store: StreamStore) -> bool:
     return bool(disabled)
 
 
-def _evaluate(run: _Run, needed: list[OptInstance], trace: _Trace) -> None:
+def _evaluate(run: _Run, needed: list[OptInstance], trace: _Trace) -> dict[int, dict[str, str]]:
     """Evaluate a stream plan in order; each placeholder input takes the real output of the
-    producer the trace chose for it."""
+    producer the trace chose for it. Returns, per evaluated instance (by id), its placeholder
+    outputs -> the real names."""
     store = run.store
     real: dict[int, dict[str, str]] = {}  # id(evaluated instance) -> placeholder -> real name
     for inst in needed:
@@ -212,10 +220,76 @@ def _evaluate(run: _Run, needed: list[OptInstance], trace: _Trace) -> None:
         rec = store.record(inst.stream, inputs)
         out = store.call(rec)
         rec.enabled = False
+        log.debug("  %s(%s) -> %s", inst.stream.schema.name, " ".join(inputs), out)
         if out is not None:
             real[id(inst)] = dict(zip(inst.outputs, out, strict=True))
         if store.out_of_time():
-            return
+            break
+    return real
+
+
+@dataclass(frozen=True)
+class _Evaluated:
+    """A plan over placeholders whose stream plan was evaluated."""
+
+    actions: tuple[tuple[str, tuple[str, ...]], ...]
+    instances: list[OptInstance]  # producers first
+    trace: _Trace
+    real: dict[int, dict[str, str]]  # id(evaluated instance) -> placeholder -> real name
+
+
+def _realize(run: _Run, done: _Evaluated, opt: list[OptInstance]) -> Plan | None:
+    """The evaluated plan with every placeholder replaced by the value its producer gave (and
+    deferred placeholders by those of the same deferred instances on the real inputs), if it is
+    still a plan over the real facts that needs no further evaluation; else None. Saves the
+    search that would find it again, and stops the optimistic search from wandering to other
+    plans once one plan's streams have all succeeded."""
+    deferred = {i.key: i for i in opt if run.deferred(i.stream)}
+    bound: dict[int, dict[str, str]] = {}
+    for inst in done.instances:
+        inputs = _bind(inst.inputs, done.trace.sources.get(id(inst), {}), bound)
+        if inputs is None:
+            return None
+        if run.deferred(inst.stream):
+            now = deferred.get((inst.stream.schema.name, inputs))
+            if now is None:
+                return None
+            bound[id(inst)] = dict(zip(inst.outputs, now.outputs, strict=True))
+        elif id(inst) in done.real:
+            bound[id(inst)] = done.real[id(inst)]
+        else:
+            return None  # it failed, or was not reached
+    actions = []
+    for (name, args), sources in zip(done.actions, done.trace.arg_sources, strict=False):
+        real_args = _bind(args, sources, bound)
+        if real_args is None:
+            return None
+        actions.append((name, real_args))
+    traced = _retrace(run, tuple(actions), opt)
+    if traced is None:
+        return None
+    per_step, _ = traced
+    if any(not run.deferred(i.stream) for insts in per_step for i in insts):
+        return None
+    log.debug("iteration %d: the evaluated plan holds with the real values", run.iterations)
+    return _final_plan(run, tuple(actions), per_step, _plan_cost(run, tuple(actions), opt))
+
+
+def _bind(
+    names: tuple[str, ...], sources: dict[str, OptInstance], bound: dict[int, dict[str, str]]
+) -> tuple[str, ...] | None:
+    out = [bound.get(id(sources[x]), {}).get(x) if x in sources else x for x in names]
+    return None if None in out else tuple(o for o in out if o is not None)
+
+
+def _plan_cost(
+    run: _Run, actions: tuple[tuple[str, tuple[str, ...]], ...], opt: list[OptInstance]
+) -> float:
+    """The plan's cost as Fast Downward would count it (scaled costs, compiled domain)."""
+    scaled = {t: float(max(0, round(v * COST_SCALE))) for t, v in run.costs.items()}
+    sem = Semantics(run.compiled.domain, _object_types(run, opt), scaled)
+    init = run.store.facts | run.store.rejected | {a for i in opt for a in i.certified}
+    return replay(sem, init, actions).cost
 
 
 # -------------------------------------------------------------------------------- incremental
@@ -230,12 +304,13 @@ def _incremental(run: _Run) -> PlanResult:
         opt = optimistic_instances(
             store, lambda b: run.deferred(b) and run.instantiated(b), run.config.max_level
         )
+        _update_costs(run, opt)
         found = _search(run, opt)
         if isinstance(found, PlanResult):
             return found
         if found is not None:
             actions, cost = found
-            per_step, _ = _retrace(run, actions, opt)
+            per_step, _ = _replayed(_retrace(run, actions, opt))
             return run.result(PlanStatus.SOLVED, "", _final_plan(run, actions, per_step, cost))
         level += 1
         if not _one_level(run):
@@ -279,18 +354,24 @@ def _object_types(run: _Run, opt: list[OptInstance]) -> dict[str, str]:
     return types
 
 
-def _search(
-    run: _Run, opt: list[OptInstance]
-) -> tuple[tuple[tuple[str, tuple[str, ...]], ...], float] | PlanResult | None:
-    """Search once: (actions, cost), None when the task is unsolvable, or a final result."""
+def _update_costs(run: _Run, opt: list[OptInstance]) -> None:
+    """Function values for the real facts and the optimistic ones of ``opt``."""
     store = run.store
-    facts = store.facts | store.rejected
     run.costs = function_values(
         run.problem,
-        facts | {a for i in opt for a in i.certified},
+        store.facts | store.rejected | {a for i in opt for a in i.certified},
         run.cost_cache,
         lambda n: store.values.get(n, n),
     )
+
+
+def _search(
+    run: _Run, opt: list[OptInstance]
+) -> tuple[tuple[tuple[str, tuple[str, ...]], ...], float] | PlanResult | None:
+    """Search once (costs from :func:`_update_costs`): (actions, cost), None when the task is
+    unsolvable, or a final result."""
+    store = run.store
+    facts = store.facts | store.rejected
     task = compile_task(
         run.problem, facts, opt, run.costs, _object_types(run, opt), run.negative_tests
     )
@@ -333,6 +414,7 @@ class _Trace:
             for a in i.certified:
                 if a not in real:
                     self.certifiers.setdefault(a, []).append(i)
+        self.arg_sources: list[dict[str, OptInstance]] = []  # per step: argument -> producer
         self.chosen: list[OptInstance] = []  # in the order first needed
         self._chosen_ids: set[int] = set()
         self.sources: dict[int, dict[str, OptInstance]] = {}  # id(consumer) -> input -> producer
@@ -344,9 +426,12 @@ class _Trace:
         for a in facts:
             if a in self.certifiers:
                 self._need(self._certifier(a, facts), out)
+        sources: dict[str, OptInstance] = {}
         for x in args:
             if x in self.first:
-                self._need(self._producer(x, facts), out)
+                sources[x] = producer = self._producer(x, facts)
+                self._need(producer, out)
+        self.arg_sources.append(sources)
         return out
 
     def _certifier(self, fact: Atom, context: list[Atom]) -> OptInstance:
@@ -385,21 +470,30 @@ class _Trace:
 
 def _retrace(
     run: _Run, actions: tuple[tuple[str, tuple[str, ...]], ...], opt: list[OptInstance]
-) -> tuple[list[list[OptInstance]], _Trace]:
+) -> tuple[list[list[OptInstance]], _Trace] | None:
     """Per plan step (plus one last entry for the goal), the optimistic instances it relies on,
-    producers first, each instance listed once (at its first use)."""
+    producers first, each instance listed once (at its first use); None if the plan is not
+    valid over the real and optimistic facts."""
     store = run.store
     trace = _Trace(opt, store.facts)
     sem = Semantics(run.compiled.domain, _object_types(run, opt), run.costs)
     init = store.facts | store.rejected | set(trace.certifiers)
     support = preimage(sem, init, actions, run.problem.goal)
     if support is None:
-        raise RuntimeError("the classical plan does not replay under the domain semantics")
+        return None
     out: list[list[OptInstance]] = []
     for k, facts in enumerate(support):
         args = actions[k][1] if k < len(actions) else ()
         out.append(trace.step(sorted(facts), args))
     return out, trace
+
+
+def _replayed(
+    traced: tuple[list[list[OptInstance]], _Trace] | None,
+) -> tuple[list[list[OptInstance]], _Trace]:
+    if traced is None:
+        raise RuntimeError("the classical plan does not replay under the domain semantics")
+    return traced
 
 
 def _final_plan(
