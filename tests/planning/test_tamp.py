@@ -19,9 +19,10 @@ from llmpas.language.semantics import Semantics, replay
 from llmpas.language.streams import read_streams
 from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, solve
 from llmpas.planning.downward import ClassicalPlan, ClassicalStatus, FastDownward
+from llmpas.planning.result import Algorithm
 
 DATA = Path(__file__).parent / "data"
-ALGORITHMS = ("focused", "incremental")
+ALGORITHMS: tuple[Algorithm, ...] = ("focused", "incremental")
 
 
 def make_problem(
@@ -80,7 +81,7 @@ def replays(problem: Problem, result: PlanResult) -> bool:
 
 
 @pytest.mark.parametrize("algorithm", ALGORITHMS)
-def test_solves_and_plan_replays_to_goal(algorithm: str) -> None:
+def test_solves_and_plan_replays_to_goal(algorithm: Algorithm) -> None:
     problem = make_problem(WIDE)
     result = solve(problem, PlannerConfig(algorithm=algorithm, max_time=30))
     assert result.status is PlanStatus.SOLVED, result.message
@@ -90,7 +91,7 @@ def test_solves_and_plan_replays_to_goal(algorithm: str) -> None:
 
 
 @pytest.mark.parametrize("algorithm", ALGORITHMS)
-def test_exhausted_samplers_make_the_problem_unsolvable(algorithm: str) -> None:
+def test_exhausted_samplers_make_the_problem_unsolvable(algorithm: Algorithm) -> None:
     # r2 is narrower than a block: its sampler has no output, so no block can get there
     problem = make_problem({"r1": (0.0, 3.0), "r2": (5.0, 5.5)}, deferred_reach=True)
     result = solve(problem, PlannerConfig(algorithm=algorithm, max_time=60))
