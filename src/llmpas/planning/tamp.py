@@ -221,6 +221,8 @@ def _evaluate(run: _Run, needed: list[OptInstance], trace: _Trace) -> dict[int, 
         out = store.call(rec)
         rec.enabled = False
         log.debug("  %s(%s) -> %s", inst.stream.schema.name, " ".join(inputs), out)
+        if out is None and rec.outputs:  # bound to inputs evaluated before: their last output
+            out = rec.outputs[-1]
         if out is not None:
             real[id(inst)] = dict(zip(inst.outputs, out, strict=True))
         if store.out_of_time():
@@ -415,6 +417,7 @@ class _Trace:
                 if a not in real:
                     self.certifiers.setdefault(a, []).append(i)
         self.arg_sources: list[dict[str, OptInstance]] = []  # per step: argument -> producer
+        self.wanted: set[Atom] = set()  # every fact the plan relies on
         self.chosen: list[OptInstance] = []  # in the order first needed
         self._chosen_ids: set[int] = set()
         self.sources: dict[int, dict[str, OptInstance]] = {}  # id(consumer) -> input -> producer
@@ -425,7 +428,7 @@ class _Trace:
         out: list[OptInstance] = []
         for a in facts:
             if a in self.certifiers:
-                self._need(self._certifier(a, facts), out)
+                self._need(self._certifier(a), out)
         sources: dict[str, OptInstance] = {}
         for x in args:
             if x in self.first:
@@ -434,19 +437,20 @@ class _Trace:
         self.arg_sources.append(sources)
         return out
 
-    def _certifier(self, fact: Atom, context: list[Atom]) -> OptInstance:
+    def _certifier(self, fact: Atom) -> OptInstance:
         for c in reversed(self.chosen):
             if fact in c.certified:
                 return c
-        wanted = set(context)
-        # the one certifying most of the context; ties: the first (lowest level, cheapest)
+        # the one certifying most of what the whole plan relies on (a placeholder's facts may be
+        # needed at different steps); ties: the first (lowest level, cheapest)
+        wanted = self.wanted
         return max(self.certifiers[fact], key=lambda c: len(wanted.intersection(c.certified)))
 
     def _producer(self, x: str, context: list[Atom]) -> OptInstance:
         """The instance standing behind placeholder ``x`` where ``context`` is needed."""
         mentioned = [a for a in context if x in a.args and a in self.certifiers]
         for a in mentioned:
-            c = self._certifier(a, context)
+            c = self._certifier(a)
             if x in c.outputs:
                 return c
         for c in reversed(self.chosen):
@@ -481,6 +485,7 @@ def _retrace(
     support = preimage(sem, init, actions, run.problem.goal)
     if support is None:
         return None
+    trace.wanted = set().union(*support)
     out: list[list[OptInstance]] = []
     for k, facts in enumerate(support):
         args = actions[k][1] if k < len(actions) else ()
