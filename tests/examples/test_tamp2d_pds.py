@@ -213,8 +213,9 @@ def test_a_place_onto_another_block_fails(packed2: tuple[object, object, Plan]) 
 def test_a_trajectory_through_the_wall_fails_only_the_geometry() -> None:
     w, p, plan = _plan("mirror", 1, False)
     objects = dict(plan.objects)
-    moves = [s for s in plan.steps if s.action == "move"]
-    t_name = moves[1].args[2]  # from the pick across the wall to the place
+    last_place = max(k for k, s in enumerate(plan.steps) if s.action == "place")
+    carry = [s for s in plan.steps[:last_place] if s.action == "move"][-1]
+    t_name = carry.args[2]  # from the last pick across the wall to the goal pose
     t: Traj = objects[t_name]
     low = min(q.y for q in t.waypoints)
     objects[t_name] = Traj((t.waypoints[0], Conf(t.waypoints[-1].x, low), t.waypoints[-1]))

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import pytest
 
-from llmpas.execution.space import ConstraintSpace, Dimension, Exhausted
+from llmpas.execution.space import NO_SAMPLE, ConstraintSpace, Dimension, Exhausted
 
 
 def space(max_samples: int = 50) -> ConstraintSpace:
@@ -80,3 +82,19 @@ def test_bad_configuration() -> None:
         Dimension("x", lambda v: [], budget=0)
     with pytest.raises(ValueError, match="repeat"):
         ConstraintSpace((Dimension("x", lambda v: []), Dimension("x", lambda v: [])))
+
+
+def test_a_sampler_that_never_produces_a_value_uses_up_its_budget() -> None:
+    def idle(values: object) -> Iterator[object]:
+        while True:  # a stream yielding None forever
+            yield NO_SAMPLE
+
+    def late(values: object) -> Iterator[object]:
+        yield NO_SAMPLE
+        yield "found"
+
+    s = ConstraintSpace((Dimension("a", lambda v: [1, 2]), Dimension("b", idle, budget=3)))
+    with pytest.raises(Exhausted):
+        s.value("b")
+    assert s.exhausted
+    assert ConstraintSpace((Dimension("c", late, budget=3),)).value("c") == "found"

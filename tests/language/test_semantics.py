@@ -399,3 +399,16 @@ def test_evaluator_agrees_with_reference_semantics(f, facts):
 def test_quantifier_over_an_empty_type(text, expected):
     sem = Semantics(PROP_DOMAIN, PROP_TYPES)
     assert sem.holds(parse_formula(text, PROP_DOMAIN), [Atom("r")]) is expected
+
+
+def test_support_of_a_forall_takes_the_consequent_only_where_the_antecedent_holds() -> None:
+    from llmpas.language.semantics import Support
+
+    objects = {f"o{i}": "object" for i in range(60)}
+    domain = parse_domain("(define (domain d) (:predicates (at ?x) (ok ?x)))")
+    sem = Semantics(domain, objects)
+    facts = [A("at", "o1"), A("at", "o2"), A("ok", "o1"), A("ok", "o2"), A("ok", "o3")]
+    forall = parse_formula("(forall (?x) (imply (at ?x) (ok ?x)))", domain)
+    support = Support(sem, sem.state(facts)).of(forall)
+    assert support == {A("ok", "o1"), A("ok", "o2")}  # not (ok o3): o3 is nowhere
+    assert Support(sem, sem.state(facts[:3])).of(forall) is None  # (ok o2) missing

@@ -2,10 +2,18 @@
 
 from __future__ import annotations
 
+import contextlib
+import os
+import resource
+import signal
+import subprocess
+import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
+from llmpas.planning import downward
 from llmpas.planning.downward import (
     LAZY_WASTAR_FF,
     ClassicalPlan,
@@ -253,3 +261,103 @@ def test_parse_plan_reads_cost_comment_or_counts_actions() -> None:
     assert actions == (("pick", ("b1", "p0")), ("place", ("b1", "t")))
     assert cost == 12.0
     assert parse_plan("(noop)\n")[1] == 1.0
+
+
+# --- limits on translation, crashes ------------------------------------------------------------
+
+
+def blow_up_task(parameters: int = 8, objects: int = 40) -> tuple[str, str]:
+    """One action with ``parameters`` parameters over ``objects`` objects: the translator would
+    ground objects**parameters instances (6.5e12 here) and grow without bound."""
+    params = " ".join(f"?v{i}" for i in range(parameters))
+    pre = " ".join(f"(item ?v{i})" for i in range(parameters))
+    domain = f"""(define (domain blowup) (:requirements :strips)
+     (:predicates (item ?x) (done))
+     (:action big :parameters ({params}) :precondition (and {pre}) :effect (done)))"""
+    names = [f"o{i}" for i in range(objects)]
+    init = " ".join(f"(item {n})" for n in names)
+    problem = f"""(define (problem b) (:domain blowup) (:objects {" ".join(names)})
+     (:init {init}) (:goal (done)))"""
+    return domain, problem
+
+
+@contextlib.contextmanager
+def hang_guard(seconds: int) -> Iterator[None]:
+    """Fail (instead of hanging the suite) if the block takes far longer than it may."""
+
+    def expire(signum: int, frame: object) -> None:
+        raise TimeoutError(f"still running after {seconds} s")
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.alarm(seconds)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+def test_translation_blow_up_ends_at_the_deadline_under_the_memory_limit() -> None:
+    domain, problem = blow_up_task()
+    with hang_guard(120):
+        plan = FastDownward(DownwardConfig(max_time=2.0, memory_mb=1024)).solve(domain, problem)
+    assert plan.status in (ClassicalStatus.TIMEOUT, ClassicalStatus.OUT_OF_MEMORY)
+    assert plan.message.startswith("translat") and "\n" not in plan.message
+    assert plan.search_time == 0.0  # no search was started
+    peak_kb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    assert peak_kb < 2 * 1024 * 1024
+
+
+def test_translation_blow_up_through_the_command_line(tmp_path: Path) -> None:
+    domain, problem = blow_up_task()
+    (tmp_path / "domain.pddl").write_text(domain)
+    (tmp_path / "problem.pddl").write_text(problem)
+    command = [sys.executable, "-m", "llmpas.cli", "plan", "domain.pddl", "problem.pddl"]
+    done = subprocess.run(
+        [*command, "--max-time", "2"], cwd=tmp_path, capture_output=True, text=True, timeout=120
+    )
+    assert done.returncode != 0
+    assert "Traceback" not in done.stdout + done.stderr
+    assert done.stdout.splitlines()[0].startswith("timeout: classical planner: translation")
+    assert resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss < 2 * 1024 * 1024
+
+
+def test_translation_memory_limit_is_out_of_memory() -> None:
+    domain, problem = blow_up_task()
+    with hang_guard(120):
+        plan = FastDownward(DownwardConfig(max_time=60.0, memory_mb=64)).solve(domain, problem)
+    assert plan.status is ClassicalStatus.OUT_OF_MEMORY
+    assert plan.message == "translator ran out of memory"
+
+
+def _dying_binary(tmp_path: Path, signal_name: str) -> Path:
+    script = tmp_path / "downward"
+    script.write_text(f"#!/bin/sh\nkill -{signal_name} $$\n")
+    script.chmod(0o755)
+    return script
+
+
+@pytest.mark.parametrize("signal_name", ["KILL", "SEGV", "TERM"])
+def test_killed_search_is_crashed_not_timeout(tmp_path: Path, signal_name: str) -> None:
+    planner = FastDownward(
+        DownwardConfig(max_time=30.0), binary=_dying_binary(tmp_path, signal_name)
+    )
+    plan = planner.solve(BLOCKS_DOMAIN, BLOCKS_PROBLEM)
+    assert plan.status is ClassicalStatus.CRASHED
+    assert f"SIG{signal_name}" in plan.message and "\n" not in plan.message
+
+
+def test_killed_translator_is_crashed_not_timeout(monkeypatch: pytest.MonkeyPatch) -> None:
+    def killed(*args: object) -> None:
+        os.kill(os.getpid(), signal.SIGKILL)  # runs in the forked translator child
+
+    monkeypatch.setattr(downward, "_run_translator", killed)
+    plan = FastDownward(DownwardConfig(max_time=30.0)).solve(BLOCKS_DOMAIN, BLOCKS_PROBLEM)
+    assert plan.status is ClassicalStatus.CRASHED
+    assert plan.message == "translator crashed (signal SIGKILL)"
+
+
+def test_translator_errors_leave_the_caller_usable(planner: FastDownward) -> None:
+    # a failed translation in the child changes nothing in this process: the next task plans
+    assert planner.solve(BLOCKS_DOMAIN[:-3], BLOCKS_PROBLEM).status is ClassicalStatus.ERROR
+    assert planner.solve(BLOCKS_DOMAIN, BLOCKS_PROBLEM).status is ClassicalStatus.SOLVED

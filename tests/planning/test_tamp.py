@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -12,14 +13,16 @@ import pytest
 
 from llmpas.language.bindings import sampler, test
 from llmpas.language.domain import read_domain
+from llmpas.language.logic import Atom
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics, replay
 from llmpas.language.streams import read_streams
 from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, solve
-from llmpas.planning.downward import ClassicalPlan, ClassicalStatus
+from llmpas.planning.downward import ClassicalPlan, ClassicalStatus, FastDownward
+from llmpas.planning.result import Algorithm
 
 DATA = Path(__file__).parent / "data"
-ALGORITHMS = ("focused", "incremental")
+ALGORITHMS: tuple[Algorithm, ...] = ("focused", "incremental")
 
 
 def make_problem(
@@ -30,6 +33,7 @@ def make_problem(
     reach: Any = None,
     deferred_reach: bool = True,
     seed: int = 0,
+    reach_sampler: Any = None,
 ) -> Problem:
     rng = np.random.default_rng(seed)
 
@@ -57,7 +61,8 @@ def make_problem(
             "sample-pose": sampler(sample_pose, max_outputs=6),
             "test-cfree": test(cfree),
             "reach": sampler(
-                lambda b, p: iter([(reach or default_reach)(b, p)]), deferred=deferred_reach
+                reach_sampler or (lambda b, p: iter([(reach or default_reach)(b, p)])),
+                deferred=deferred_reach,
             ),
         },
     )
@@ -76,7 +81,7 @@ def replays(problem: Problem, result: PlanResult) -> bool:
 
 
 @pytest.mark.parametrize("algorithm", ALGORITHMS)
-def test_solves_and_plan_replays_to_goal(algorithm: str) -> None:
+def test_solves_and_plan_replays_to_goal(algorithm: Algorithm) -> None:
     problem = make_problem(WIDE)
     result = solve(problem, PlannerConfig(algorithm=algorithm, max_time=30))
     assert result.status is PlanStatus.SOLVED, result.message
@@ -86,7 +91,7 @@ def test_solves_and_plan_replays_to_goal(algorithm: str) -> None:
 
 
 @pytest.mark.parametrize("algorithm", ALGORITHMS)
-def test_exhausted_samplers_make_the_problem_unsolvable(algorithm: str) -> None:
+def test_exhausted_samplers_make_the_problem_unsolvable(algorithm: Algorithm) -> None:
     # r2 is narrower than a block: its sampler has no output, so no block can get there
     problem = make_problem({"r1": (0.0, 3.0), "r2": (5.0, 5.5)}, deferred_reach=True)
     result = solve(problem, PlannerConfig(algorithm=algorithm, max_time=60))
@@ -153,6 +158,24 @@ def test_slow_streams_end_in_timeout() -> None:
     assert result.status is PlanStatus.TIMEOUT
 
 
+def test_a_sampler_yielding_only_none_ends_at_the_deadline() -> None:
+    def idle(b: str, p: float) -> Iterator[None]:
+        while True:  # "nothing this time", forever
+            yield None
+
+    problem = make_problem(WIDE, deferred_reach=False, reach_sampler=idle)
+    result = solve(problem, PlannerConfig(max_time=1.0))
+    assert result.status is PlanStatus.TIMEOUT
+    assert result.stats.stream_calls["reach"] >= 1
+
+
+def test_an_exceeded_max_time_returns_without_searching() -> None:
+    planner = ScriptedPlanner([])
+    result = solve(make_problem(WIDE), PlannerConfig(max_time=1e-9), classical=planner)
+    assert result.status is PlanStatus.TIMEOUT
+    assert planner.calls == []
+
+
 class ScriptedPlanner:
     """An in-memory classical planner that answers from a script (for the failure paths)."""
 
@@ -171,6 +194,7 @@ class ScriptedPlanner:
     ("status", "expected"),
     [
         (ClassicalStatus.TIMEOUT, PlanStatus.TIMEOUT),
+        (ClassicalStatus.CRASHED, PlanStatus.CRASHED),
         (ClassicalStatus.OUT_OF_MEMORY, PlanStatus.ERROR),
         (ClassicalStatus.ERROR, PlanStatus.ERROR),
     ],
@@ -193,6 +217,64 @@ def test_classical_task_assumes_optimistic_facts_with_placeholders() -> None:
     assert "(contained b0 #o" in problem and "(reach b0 v0 #o" in problem
     assert "rejected__cfree" in domain  # the negated collision test is rewritten
     assert "(cfree b0 v0 b1 v1)" in problem  # real bindings of the negative test: evaluated
+
+
+def _placeholders(problem_pddl: str) -> set[str]:
+    return set(re.findall(r"#o\d+", problem_pddl))
+
+
+def test_placeholders_are_shared_per_stream_output_and_level() -> None:
+    # 5 blocks x 2 regions: 10 sample-pose instances, and reach / cfree instances on their
+    # outputs; evaluated streams share one placeholder per (stream, output, level)
+    planner = ScriptedPlanner([ClassicalPlan(ClassicalStatus.ERROR, (), None, 0.0, 0.0, "x")])
+    problem = make_problem(WIDE, n_blocks=5, deferred_reach=False)
+    solve(problem, PlannerConfig(max_level=2), classical=planner)
+    shared = _placeholders(planner.calls[0][1])
+    # sample-pose at level 1; reach at levels 1 (real poses) and 2 (placeholder poses)
+    assert len(shared) == 3
+    assert "(pose b0 #o1)" in planner.calls[0][1] and "(pose b4 #o1)" in planner.calls[0][1]
+
+
+def test_deferred_placeholders_stay_one_per_instance() -> None:
+    planner = ScriptedPlanner([ClassicalPlan(ClassicalStatus.ERROR, (), None, 0.0, 0.0, "x")])
+    problem = make_problem(WIDE, n_blocks=5, deferred_reach=True)
+    solve(problem, PlannerConfig(max_level=2), classical=planner)
+    reach = re.findall(r"\(reach (\S+) (\S+) (#o\d+)\)", planner.calls[0][1])
+    assert len(reach) > 5
+    assert len({q for _, _, q in reach}) == len(reach)  # one output per reach instance
+
+
+def test_consumers_of_a_shared_placeholder_get_their_own_producers_value() -> None:
+    regions = {"r1": (0.0, 3.0), "r2": (5.0, 11.0)}
+    problem = make_problem(regions, n_blocks=3, n_goal=3, deferred_reach=False)
+    result = solve(problem, PlannerConfig(max_time=60))
+    assert result.plan is not None
+    facts = set(problem.init) | result.plan.certified
+    reach = [a for a in facts if a.predicate == "reach"]
+    assert len(reach) >= 3
+    for a in reach:  # reach(b, p) was called on a pose sampled for b itself
+        block, pose, _ = a.args
+        assert Atom("pose", (block, pose)) in facts
+    assert replays(problem, result)
+
+
+def test_a_plan_whose_streams_all_succeed_is_kept_without_searching_again() -> None:
+    class Counting(FastDownward):
+        calls = 0
+
+        def solve(
+            self, domain_pddl: str, problem_pddl: str, *, max_time: float | None = None
+        ) -> ClassicalPlan:
+            Counting.calls += 1
+            return super().solve(domain_pddl, problem_pddl, max_time=max_time)
+
+    problem = make_problem(WIDE, n_blocks=2, n_goal=2, deferred_reach=False)
+    result = solve(problem, PlannerConfig(max_time=60), classical=Counting())
+    assert result.plan is not None
+    # the last iteration found the evaluated plan valid with the real values: no search
+    assert Counting.calls == result.stats.iterations - 1
+    assert all(not a.startswith("#") for s in result.plan.steps for a in s.args)
+    assert replays(problem, result)
 
 
 def test_evaluates_only_what_the_plan_relies_on() -> None:

@@ -14,7 +14,7 @@ from typing import Any
 from llmpas.execution.anomaly import Failure
 from llmpas.execution.context import Belief, Context
 from llmpas.execution.csubbt import Constraint, SubAction, SubtreeSpec, Values
-from llmpas.execution.space import Dimension
+from llmpas.execution.space import NO_SAMPLE, Dimension
 from llmpas.language.logic import Atom, Formula, Not, Substitution, conjuncts, effect_atoms
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics
@@ -120,8 +120,8 @@ class PlanBuilder:
 
     def _stream(self, name: str, inputs: tuple[Any, ...]) -> Iterator[Any]:
         """A (deferred) stream of the problem, evaluated now on perceived values."""
-        for out in self.problem.bound_streams[name].outputs(inputs):
-            yield out[0]
+        for out in self.problem.bound_streams[name].samples(inputs):
+            yield NO_SAMPLE if out is None else out[0]
 
     def _precondition(self, step: PlanStep) -> Constraint:
         """The step's precondition in the believed state, reported as the literal that fails."""

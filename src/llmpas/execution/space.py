@@ -19,6 +19,16 @@ from typing import Any
 Sampler = Callable[[Mapping[str, Any]], Iterable[Any]]
 
 
+class _NoSample:
+    def __repr__(self) -> str:
+        return "NO_SAMPLE"
+
+
+#: What a sampler yields for "nothing this time" (a stream's ``None``): it uses up one draw of the
+#: dimension's budget, so a sampler that never produces a value cannot hang the space.
+NO_SAMPLE: Any = _NoSample()
+
+
 @dataclass(frozen=True)
 class Dimension:
     """One axis of the constraint space.
@@ -111,6 +121,11 @@ class ConstraintSpace:
             return False
         try:
             v = next(slot.iterator)
+            while v is NO_SAMPLE:
+                slot.drawn += 1
+                if slot.drawn >= d.budget:
+                    return False
+                v = next(slot.iterator)
         except StopIteration:
             return False
         slot.value = v

@@ -120,6 +120,13 @@ class BoundStream:
     def outputs(
         self, inputs: tuple[Any, ...], fluents: Iterable[Any] = ()
     ) -> Iterator[tuple[Any, ...]]:
+        return (out for out in self.samples(inputs, fluents) if out is not None)
+
+    def samples(
+        self, inputs: tuple[Any, ...], fluents: Iterable[Any] = ()
+    ) -> Iterator[tuple[Any, ...] | None]:
+        """Like :meth:`outputs`, but a sampler's ``None`` ("nothing this time") is passed on, so
+        that a caller can check its deadline between values."""
         kwargs = {"fluents": list(fluents)} if self.schema.fluents else {}
         result = self.impl.fn(*inputs, **kwargs)
         if self.schema.is_test:
@@ -132,7 +139,7 @@ class BoundStream:
             return
         yield from self._normalise(result)
 
-    def _normalise(self, result: Any) -> Iterator[tuple[Any, ...]]:
+    def _normalise(self, result: Any) -> Iterator[tuple[Any, ...] | None]:
         kind = self.impl.kind
         if result is None:
             return
@@ -145,9 +152,8 @@ class BoundStream:
                 "of outputs, None, or an iterable of tuples"
             )
         for item in result:
-            if item is None:  # a sampler may yield None for "no output this time"
-                continue
-            yield self._check(item)
+            # a sampler may yield None for "no output this time"
+            yield None if item is None else self._check(item)
 
     def _check(self, item: Any) -> tuple[Any, ...]:
         n = len(self.schema.outputs)

@@ -508,12 +508,26 @@ class Support:
                 vs = tuple(p.name for p in ps)
                 types = {p.name: p.type for p in ps}
                 acc: frozenset[Atom] = frozenset()
-                for full in self.ev._bind_all(
-                    vs, {k: v for k, v in env.items() if k not in vs}, types
+                for full in self._relevant(
+                    body, vs, {k: v for k, v in env.items() if k not in vs}, types
                 ):
                     acc |= self.of(body, full) or frozenset()
                 return acc
         return frozenset()
+
+    def _relevant(
+        self, body: Formula, vs: tuple[str, ...], env: Env, types: dict[str, str]
+    ) -> Iterator[Env]:
+        """Bindings of ``vs`` whose instance of ``body`` needs support: where one of its negated
+        atom disjuncts holds (an implication's false antecedent), the empty witness will do; so
+        only bindings that make every such atom true are enumerated, as a join, not over every
+        tuple of objects."""
+        guards = tuple(_negated_disjuncts(body))
+        if not guards:
+            yield from self.ev._bind_all(vs, env, types)
+            return
+        for e in self.ev.solve(And(guards), env, types):
+            yield from self.ev._bind_all(vs, e, types)
 
     def _atom(self, a: Atom) -> frozenset[Atom]:
         if a.predicate not in self.rules:
@@ -528,6 +542,16 @@ class Support:
                 self._memo[a] = got
                 break
         return self._memo[a]
+
+
+def _negated_disjuncts(f: Formula) -> Iterator[Atom]:
+    """Atoms ``a`` such that ``(not a)`` is a disjunct of ``f`` (in negation normal form)."""
+    match f:
+        case Not(Atom() as a):
+            yield a
+        case Or(parts):
+            for p in parts:
+                yield from _negated_disjuncts(p)
 
 
 def _names(params: Iterable[Param]) -> set[str]:

@@ -1,15 +1,13 @@
 """A small typed interface to a classical planner, implemented with Fast Downward.
 
-Translation (PDDL -> SAS+) runs in-process with ``fast_downward.translate``; search runs the
-compiled ``downward`` binary shipped by ``up-fast-downward`` as a subprocess with the SAS+ text
-on stdin, under a CPU-time and address-space limit plus a wall-clock timeout.
+Translation (PDDL -> SAS+) runs ``fast_downward.translate`` in a forked child process; search
+runs the compiled ``downward`` binary shipped by ``up-fast-downward`` as a subprocess with the SAS+
+file on stdin. Both run under a CPU-time and address-space limit plus a wall-clock deadline (the
+call's ``max_time`` covers both), so a grounding blow-up ends as a typed result.
 
-Outcomes of a task (solved, unsolvable, limits hit, bad PDDL, planner crash) are returned as a
-:class:`ClassicalPlan` with a :class:`ClassicalStatus`; an installation problem (no search
-binary) raises :class:`PlannerNotFound`.
-
-Not thread-safe: the translator keeps its options in a module global and the call redirects
-``sys.stdout``/``sys.stderr`` while translating.
+Outcomes of a task (solved, unsolvable, limits hit, bad PDDL, a crashed or killed process) are
+returned as a :class:`ClassicalPlan` with a :class:`ClassicalStatus`; an installation problem (no
+search binary) raises :class:`PlannerNotFound`. POSIX only (``os.fork``).
 """
 
 from __future__ import annotations
@@ -18,14 +16,16 @@ import contextlib
 import enum
 import functools
 import importlib.util
-import io
+import json
 import logging
 import math
 import os
 import re
 import resource
+import select
 import signal
 import subprocess
+import sys
 import tempfile
 import time
 from collections.abc import Callable
@@ -60,6 +60,7 @@ class ClassicalStatus(enum.Enum):
     UNSOLVABLE = "unsolvable"
     TIMEOUT = "timeout"
     OUT_OF_MEMORY = "out_of_memory"
+    CRASHED = "crashed"  # the translator or search process died (a signal, no result)
     ERROR = "error"
 
 
@@ -95,7 +96,7 @@ class DownwardConfig:
 
     search: str = LAZY_GREEDY_FF
     max_time: float = 60.0  # seconds, whole call (translation + search)
-    memory_mb: int = 4096  # address-space limit of the search process
+    memory_mb: int = 4096  # address-space limit of the search (and of what translation adds)
 
     def __post_init__(self) -> None:
         _check_max_time(self.max_time)
@@ -181,7 +182,9 @@ class FastDownward:
         with tempfile.TemporaryDirectory(prefix="llmpas-fd-") as tmp:
             workdir = Path(tmp)
             started = time.monotonic()
-            translated = _translate(workdir, domain_pddl, problem_pddl, budget)
+            translated = _translate(
+                workdir, domain_pddl, problem_pddl, budget, self.config.memory_mb
+            )
             translate_time = time.monotonic() - started
             if isinstance(translated, _Failure):
                 return _failure(translated.status, translated.message, translate_time)
@@ -201,53 +204,170 @@ class _Failure:
     message: str
 
 
-def _translate(workdir: Path, domain_pddl: str, problem_pddl: str, budget: float) -> str | _Failure:
-    """SAS+ text of the task, or why there is none. Translator output goes to the log."""
+#: What a translator child writes to its pipe when it ran out of memory (no allocation needed).
+_CHILD_OOM = b'{"status": "out_of_memory", "message": "translator ran out of memory"}'
+
+
+def _translate(
+    workdir: Path, domain_pddl: str, problem_pddl: str, budget: float, memory_mb: int
+) -> Path | _Failure:
+    """The SAS+ file of the task, or why there is none.
+
+    The translator runs in a forked child (cheap: the translator is already imported) with an
+    address-space limit of ``memory_mb`` beyond what the parent had mapped, a CPU limit, and a
+    wall-clock deadline after which the parent kills it; its output goes to the debug log."""
     domain_file, problem_file = workdir / "domain.pddl", workdir / "problem.pddl"
     domain_file.write_text(domain_pddl)
     problem_file.write_text(problem_pddl)
-    output = io.StringIO()
+    sas_file, log_file = workdir / "output.sas", workdir / "translate.log"
+    _import_translator()
+    deadline = time.monotonic() + budget
+    read_fd, write_fd = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # pragma: no cover - runs in the child, which never returns
+        os.close(read_fd)
+        _translator_child(
+            write_fd, domain_file, problem_file, sas_file, log_file, budget, memory_mb
+        )
+    os.close(write_fd)
     try:
-        with contextlib.redirect_stdout(output), contextlib.redirect_stderr(output):
-            sas_text = _run_translator(domain_file, problem_file, budget)
-    except MemoryError:
-        return _Failure(ClassicalStatus.OUT_OF_MEMORY, "translator ran out of memory")
-    except SystemExit as exc:
-        return _translator_exit(exc, workdir)
-    except Exception as exc:  # the translator reports bad input with assorted exceptions
-        text = _one_line(str(exc), workdir) or type(exc).__name__
-        return _Failure(ClassicalStatus.ERROR, f"translation failed: {text}")
+        report, killed = _await_child(pid, read_fd, deadline)
     finally:
-        logger.debug("translator output:\n%s", output.getvalue())
-    lines = output.getvalue().splitlines()
-    unsolvable = [line for line in lines if "Generating unsolvable task" in line]
-    if unsolvable:
-        return _Failure(ClassicalStatus.UNSOLVABLE, f"translator: {unsolvable[0].strip()}")
-    return sas_text
+        os.close(read_fd)
+    wait_status = os.waitpid(pid, 0)[1]
+    if log_file.is_file():
+        logger.debug("translator output:\n%s", log_file.read_text(errors="replace")[-4000:])
+    if killed:
+        return _Failure(ClassicalStatus.TIMEOUT, f"translation exceeded {budget:.2f} s (killed)")
+    return _child_outcome(report, wait_status, sas_file, workdir, budget)
 
 
-def _run_translator(domain_file: Path, problem_file: Path, budget: float) -> str:
+def _import_translator() -> None:
+    """Import the translator in the parent, so that forked children share it."""
+    from fast_downward.translate import main as _main  # noqa: F401
+
+
+def _await_child(pid: int, read_fd: int, deadline: float) -> tuple[bytes, bool]:
+    """Everything the child wrote to the pipe (until it closed it or died), and whether it was
+    killed at the deadline."""
+    chunks: list[bytes] = []
+    while True:
+        remaining = deadline - time.monotonic()
+        ready, _, _ = select.select([read_fd], [], [], max(0.0, remaining))
+        if not ready:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGKILL)
+            return b"", True
+        chunk = os.read(read_fd, 65536)
+        if not chunk:
+            return b"".join(chunks), False
+        chunks.append(chunk)
+
+
+def _child_outcome(
+    report: bytes, wait_status: int, sas_file: Path, workdir: Path, budget: float
+) -> Path | _Failure:
+    """Interpret the child's report and exit status."""
+    if os.WIFSIGNALED(wait_status):
+        sig = os.WTERMSIG(wait_status)
+        if sig == signal.SIGXCPU:  # the CPU limit (our own kill at the deadline is seen above)
+            return _Failure(ClassicalStatus.TIMEOUT, f"translation exceeded {budget:.2f} s CPU")
+        return _Failure(ClassicalStatus.CRASHED, f"translator crashed ({_signal_name(sig)})")
+    try:
+        parsed = json.loads(report.decode("utf-8", "replace"))
+        status, message = ClassicalStatus(parsed["status"]), str(parsed["message"])
+    except (ValueError, KeyError, TypeError):
+        code = os.waitstatus_to_exitcode(wait_status)
+        return _Failure(ClassicalStatus.CRASHED, f"translator died without a result (exit {code})")
+    if status is ClassicalStatus.SOLVED:
+        return sas_file
+    return _Failure(status, _one_line(message, workdir))
+
+
+def _translator_child(
+    write_fd: int,
+    domain_file: Path,
+    problem_file: Path,
+    sas_file: Path,
+    log_file: Path,
+    budget: float,
+    memory_mb: int,
+) -> None:  # pragma: no cover - runs in the forked child
+    """Translate under limits, write the SAS+ file and a one-line JSON report; never returns."""
+    code = 0
+    try:
+        _set_limit(resource.RLIMIT_CPU, math.ceil(budget) + 1, math.ceil(budget) + 2)
+        _set_limit(resource.RLIMIT_AS, *([_mapped_bytes() + memory_mb * 1024 * 1024] * 2))
+        with open(log_file, "w") as log:
+            os.dup2(log.fileno(), 1)
+            os.dup2(log.fileno(), 2)
+            sys.stdout = sys.stderr = log
+            report = _translate_in_child(domain_file, problem_file, sas_file, budget)
+            log.flush()
+        os.write(write_fd, json.dumps(report).encode())
+    except MemoryError:
+        os.write(write_fd, _CHILD_OOM)
+    except BaseException:  # a child must end with os._exit, whatever happened
+        code = 1
+    finally:
+        os._exit(code)
+
+
+def _translate_in_child(
+    domain_file: Path, problem_file: Path, sas_file: Path, budget: float
+) -> dict[str, str]:
+    status, message = ClassicalStatus.SOLVED, ""
+    try:
+        _run_translator(domain_file, problem_file, sas_file, budget)
+    except MemoryError:
+        raise
+    except SystemExit as exc:
+        failure = _translator_exit(exc)
+        status, message = failure.status, failure.message
+    except RecursionError:
+        status, message = ClassicalStatus.ERROR, "translation failed: input nested too deeply"
+    except Exception as exc:  # the translator reports bad input with assorted exceptions
+        text = " ".join(str(exc).split()) or type(exc).__name__
+        status, message = ClassicalStatus.ERROR, f"translation failed: {text}"
+    if status is ClassicalStatus.SOLVED:
+        sys.stdout.flush()
+        unsolvable = _unsolvable_line(Path(sys.stdout.name))
+        if unsolvable:
+            status, message = ClassicalStatus.UNSOLVABLE, f"translator: {unsolvable}"
+    return {"status": status.value, "message": message}
+
+
+def _unsolvable_line(log_file: Path) -> str:
+    for line in log_file.read_text(errors="replace").splitlines():
+        if "Generating unsolvable task" in line:
+            return line.strip()
+    return ""
+
+
+def _mapped_bytes() -> int:
+    """Virtual memory this process has mapped (0 where /proc is not available)."""
+    try:
+        pages = int(Path("/proc/self/statm").read_text().split()[0])
+    except (OSError, ValueError, IndexError):
+        return 0
+    return pages * resource.getpagesize()
+
+
+def _run_translator(domain_file: Path, problem_file: Path, sas_file: Path, budget: float) -> None:
     from fast_downward.translate import main as translate_main
     from fast_downward.translate import normalize, options, pddl_parser
 
-    previous = options.options
     arguments = [str(domain_file), str(problem_file)]
     arguments += ["--invariant-generation-max-time", str(max(1, math.ceil(budget)))]
-    options.set_options(arguments)
-    try:
-        task = pddl_parser.open(
-            domain_filename=str(domain_file), problem_filename=str(problem_file)
-        )
-        normalize.normalize(task)
-        sas_task = translate_main.pddl_to_sas(task)
-        sas = io.StringIO()
-        sas_task.output(sas)
-        return sas.getvalue()
-    finally:
-        options.options = previous
+    options.set_options(arguments)  # the child's own copy of the translator's global options
+    task = pddl_parser.open(domain_filename=str(domain_file), problem_filename=str(problem_file))
+    normalize.normalize(task)
+    sas_task = translate_main.pddl_to_sas(task)
+    with open(sas_file, "w") as out:
+        sas_task.output(out)
 
 
-def _translator_exit(exc: SystemExit, workdir: Path) -> _Failure:
+def _translator_exit(exc: SystemExit) -> _Failure:
     """Map a translator ``sys.exit`` (a message or a driver exit code) to a failure."""
     code = exc.code
     if isinstance(code, int) and not isinstance(code, bool):
@@ -255,7 +375,7 @@ def _translator_exit(exc: SystemExit, workdir: Path) -> _Failure:
         if status is ClassicalStatus.SOLVED:  # exit without a task is never a plan
             status = ClassicalStatus.ERROR
         return _Failure(status, f"translator exited with code {code}")
-    return _Failure(ClassicalStatus.ERROR, f"translation failed: {_one_line(str(code), workdir)}")
+    return _Failure(ClassicalStatus.ERROR, f"translation failed: {code}")
 
 
 def _one_line(text: str, workdir: Path) -> str:
@@ -288,8 +408,6 @@ _UNSOLVABLE_MESSAGES = {
     12: "no plan: an incomplete search exhausted its space (exit code 12); may be solvable",
     13: "no plan within the search's cost bound (exit code 13)",
 }
-#: Signals that mean the CPU limit was enforced (SIGXCPU unhandled, or the hard limit's SIGKILL).
-_TIME_SIGNALS = (signal.SIGXCPU, signal.SIGKILL)
 _MEMORY_WORDS = ("failed to map segment", "cannot allocate memory", "bad_alloc")
 
 
@@ -313,7 +431,7 @@ def _set_limit(which: int, soft: int, hard: int) -> None:
 def _search(
     binary: Path,
     config: DownwardConfig,
-    sas_text: str,
+    sas_file: Path,
     workdir: Path,
     remaining: float,
     translate_time: float,
@@ -323,33 +441,39 @@ def _search(
     preexec = _limits_setter(max(1, math.ceil(remaining)), config.memory_mb * 1024 * 1024)
     started = time.monotonic()
     try:
-        result = subprocess.run(
-            command,
-            input=sas_text,
-            capture_output=True,
-            text=True,
-            cwd=workdir,
-            preexec_fn=preexec,
-            timeout=remaining + min(_KILL_GRACE_S, 0.1 * remaining),
-            check=False,
-        )
+        with open(sas_file) as sas:
+            result = subprocess.run(
+                command,
+                stdin=sas,
+                capture_output=True,
+                text=True,
+                cwd=workdir,
+                preexec_fn=preexec,
+                timeout=remaining + min(_KILL_GRACE_S, 0.1 * remaining),
+                check=False,
+            )
     except subprocess.TimeoutExpired:
         search_time = time.monotonic() - started
         message = f"search exceeded {remaining:.2f} s (killed)"
         return _failure(ClassicalStatus.TIMEOUT, message, translate_time, search_time)
     search_time = time.monotonic() - started
     logger.debug("search exit code %d, output tail:\n%s", result.returncode, result.stdout[-2000:])
-    status, message = _classify(result, config, remaining)
+    status, message = _classify(result, config, remaining, search_time)
     if status is not ClassicalStatus.SOLVED:
         return _failure(status, message, translate_time, search_time)
     return _read_plan(workdir, translate_time, search_time)
 
 
 def _classify(
-    result: subprocess.CompletedProcess[str], config: DownwardConfig, remaining: float
+    result: subprocess.CompletedProcess[str],
+    config: DownwardConfig,
+    remaining: float,
+    elapsed: float,
 ) -> tuple[ClassicalStatus, str]:
     code = result.returncode
-    if code < 0 and -code in _TIME_SIGNALS:
+    # the CPU limit sends SIGXCPU, then SIGKILL at the hard limit; a SIGKILL before the soft limit
+    # could have been reached (CPU time <= wall time) came from elsewhere: a crash, not a timeout
+    if code < 0 and (-code == signal.SIGXCPU or (-code == signal.SIGKILL and elapsed >= remaining)):
         return ClassicalStatus.TIMEOUT, f"search exceeded {remaining:.2f} s ({_exit_text(code)})"
     status = _EXIT_STATUS.get(code)
     if status is None and any(word in result.stderr.lower() for word in _MEMORY_WORDS):
@@ -362,16 +486,20 @@ def _classify(
         return status, _UNSOLVABLE_MESSAGES.get(code, f"search found no plan (exit code {code})")
     if status is ClassicalStatus.SOLVED:
         return status, ""
+    if code < 0:
+        return ClassicalStatus.CRASHED, f"search crashed ({_exit_text(code)}): {_last_line(result)}"
     return ClassicalStatus.ERROR, f"search failed ({_exit_text(code)}): {_last_line(result)}"
 
 
 def _exit_text(code: int) -> str:
-    if code >= 0:
-        return f"exit code {code}"
+    return f"exit code {code}" if code >= 0 else _signal_name(-code)
+
+
+def _signal_name(number: int) -> str:
     try:
-        return f"signal {signal.Signals(-code).name}"
+        return f"signal {signal.Signals(number).name}"
     except ValueError:
-        return f"signal {-code}"
+        return f"signal {number}"
 
 
 _NOISE = (

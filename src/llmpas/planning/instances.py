@@ -4,6 +4,13 @@
 record per stream instance (a stream applied to concrete inputs). :func:`optimistic_instances`
 computes the optimistic closure: every instance that could be applied, with placeholder outputs
 ``#oN`` standing for values not computed yet.
+
+Placeholders of streams evaluated while planning are *shared*, as in PDDLStream: every instance
+of one stream gets the same placeholder per output and level (level = 1 + the highest level of
+its inputs, real objects being level 0). The number of objects, and so the grounded task, stays
+small; a plan over shared placeholders is only optimistic and is planned again once the streams
+it relies on have produced real values. Placeholders of deferred streams stay unique per
+instance: they reach the executor, which must tell them apart.
 """
 
 from __future__ import annotations
@@ -16,7 +23,7 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
-from llmpas.language.bindings import BoundStream
+from llmpas.language.bindings import BoundStream, Kind
 from llmpas.language.domain import Domain
 from llmpas.language.logic import (
     And,
@@ -35,6 +42,8 @@ from llmpas.planning.externals import external_rewrite
 log = logging.getLogger(__name__)
 
 OPTIMISTIC_PREFIX = "#o"
+_END = object()  # sentinel: a stream's iterator is exhausted
+_IDLE = object()  # sentinel: a sampler yielded only None until the deadline
 
 
 def is_optimistic(name: str) -> bool:
@@ -51,7 +60,7 @@ class Record:
 
     bound: BoundStream
     inputs: tuple[str, ...]
-    iterator: Iterator[tuple[Any, ...]] | None = None
+    iterator: Iterator[tuple[Any, ...] | None] | None = None
     calls: int = 0
     outputs: list[tuple[str, ...]] = field(default_factory=list)
     exhausted: bool = False
@@ -71,6 +80,13 @@ class OptInstance:
     @property
     def key(self) -> tuple[str, tuple[str, ...]]:
         return self.stream.schema.name, self.inputs
+
+    @property
+    def domain(self) -> tuple[Atom, ...]:
+        """The stream's domain facts on these inputs (what the instance needs to apply)."""
+        schema = self.stream.schema
+        sub = Substitution(dict(zip(schema.inputs, self.inputs, strict=True)))
+        return tuple(sub.atom(a) for a in schema.domain)
 
 
 def rejected_predicate(pred: str) -> str:
@@ -115,6 +131,8 @@ class StreamStore:
             self.calls[rec.bound.schema.name] += 1
             rec.calls += 1
         schema = rec.bound.schema
+        if out is _IDLE:  # the sampler yielded only None until the deadline: not exhausted
+            return None
         if out is None:
             rec.exhausted = True
             if schema.is_test:
@@ -130,17 +148,27 @@ class StreamStore:
             dict(zip(schema.inputs + schema.outputs, rec.inputs + names, strict=True))
         )
         self.facts |= {sub.atom(a) for a in schema.certified}
-        if schema.is_test or rec.calls >= rec.bound.info.max_outputs:
+        single = rec.bound.impl.kind is Kind.FUNCTION  # a function has one output at most
+        if schema.is_test or single or rec.calls >= rec.bound.info.max_outputs:
             rec.exhausted = True
         return names
 
-    def _next(self, rec: Record) -> tuple[Any, ...] | None:
+    def _next(self, rec: Record) -> Any:
+        """The next output tuple; None when exhausted; ``_IDLE`` when the sampler yielded only
+        ``None`` ("nothing this time") until the deadline, which is checked on every value."""
         if rec.iterator is None:
             values = tuple(self.values.get(n, n) for n in rec.inputs)
             fluents = self._fluents(rec.bound)
-            rec.iterator = rec.bound.outputs(values, fluents)
+            rec.iterator = rec.bound.samples(values, fluents)
         iterator = rec.iterator
-        return self._guard(rec, lambda: next(iterator, None))
+        while True:
+            item = self._guard(rec, lambda: next(iterator, _END))
+            if item is _END:
+                return None
+            if item is not None:
+                return item
+            if self.out_of_time():
+                return _IDLE
 
     def _guard(self, rec: Record, fn: Callable[[], Any]) -> Any:
         try:
@@ -203,26 +231,46 @@ def evaluate_negative_tests(store: StreamStore, streams: Iterable[BoundStream]) 
                 return
 
 
+class _Namer:
+    """Placeholder names: ``#oN``, one per (stream, output, level) for shared streams."""
+
+    def __init__(self, shared: Callable[[BoundStream], bool]) -> None:
+        self.shared = shared
+        self.counter = itertools.count(1)
+        self.names: dict[tuple[str, int, int], str] = {}
+
+    def outputs(self, bound: BoundStream, level: int) -> tuple[str, ...]:
+        n = len(bound.schema.outputs)
+        if not self.shared(bound):
+            return tuple(self._fresh() for _ in range(n))
+        keys = [(bound.schema.name, i, level) for i in range(n)]
+        return tuple(self.names.get(k) or self.names.setdefault(k, self._fresh()) for k in keys)
+
+    def _fresh(self) -> str:
+        return f"{OPTIMISTIC_PREFIX}{next(self.counter)}"
+
+
 def optimistic_instances(
     store: StreamStore,
     allowed: Callable[[BoundStream], bool],
     max_level: int,
     limit: int = 50_000,
+    shared: Callable[[BoundStream], bool] = lambda b: False,
 ) -> list[OptInstance]:
     """The optimistic closure of the real facts under the allowed, enabled, non-exhausted
-    instances."""
+    instances; streams for which ``shared`` holds share their placeholders (module docstring)."""
     facts = set(store.facts)
     level: dict[str, int] = {}
     seen: set[tuple[str, tuple[str, ...]]] = set()
     out: list[OptInstance] = []
-    counter = itertools.count(1)
+    namer = _Namer(shared)
     streams = [b for b in store.problem.bound_streams.values() if allowed(b)]
     changed = True
     while changed:
         changed = False
         state = State(facts)
         for bound in streams:
-            for inst in _new_instances(bound, state, store, seen, level, max_level, counter):
+            for inst in _new_instances(bound, state, store, seen, level, max_level, namer):
                 out.append(inst)
                 facts |= set(inst.certified)
                 changed = True
@@ -241,7 +289,7 @@ def _new_instances(
     seen: set[tuple[str, tuple[str, ...]]],
     level: dict[str, int],
     max_level: int,
-    counter: Iterator[int],
+    namer: _Namer,
 ) -> Iterator[OptInstance]:
     schema = bound.schema
     for env in list(join(schema.domain, state)):
@@ -256,7 +304,7 @@ def _new_instances(
         if lvl > max_level:
             continue
         seen.add(key)
-        outputs = tuple(f"{OPTIMISTIC_PREFIX}{next(counter)}" for _ in schema.outputs)
+        outputs = namer.outputs(bound, lvl)
         level.update(dict.fromkeys(outputs, lvl))
         sub = Substitution(dict(zip(schema.inputs + schema.outputs, inputs + outputs, strict=True)))
         certified = tuple(sub.atom(a) for a in schema.certified)

@@ -16,6 +16,7 @@ class PlanStatus(enum.Enum):
     SOLVED = "solved"
     UNSOLVABLE = "unsolvable"
     TIMEOUT = "timeout"
+    CRASHED = "crashed"  # the classical planner (translator or search) died: not a timeout
     ERROR = "error"
 
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 from llmpas.language.bindings import BoundStream
 from llmpas.language.logic import Atom, FuncTerm, Substitution
 from llmpas.language.problem import Problem, missing_function_value
-from llmpas.language.semantics import Semantics, State, preimage
+from llmpas.language.semantics import Semantics, State, preimage, replay
 from llmpas.planning.compile import (
     COST_SCALE,
     CompiledDomain,
@@ -42,6 +42,7 @@ from llmpas.planning.downward import (
     FastDownward,
     PlannerNotFound,
 )
+from llmpas.planning.guards import guard_quantifiers
 from llmpas.planning.instances import (
     OptInstance,
     StreamFailure,
@@ -77,6 +78,7 @@ class _Run:
     assumed: frozenset[str]  # deferred streams: assumed, never evaluated here
     started: float
     inline: frozenset[str] = frozenset()  # deferred streams compiled into the actions
+    domain_text: str = ""  # what the classical planner gets (quantifiers guarded)
     iterations: int = 0
     translate_time: float = 0.0
     search_time: float = 0.0
@@ -137,6 +139,7 @@ def solve(
         started,
         inline=inline,
     )
+    run.domain_text = guard_quantifiers(run.compiled.domain).to_pddl()
     try:
         if config.algorithm == "incremental":
             return _incremental(run)
@@ -152,12 +155,20 @@ def solve(
 
 def _focused(run: _Run) -> PlanResult:
     store = run.store
+    evaluated: _Evaluated | None = None  # the last plan whose streams were evaluated
     while run.iterations < run.config.max_iterations:
         run.iterations += 1
         evaluate_negative_tests(store, _negative_streams(run))
         if store.out_of_time():
             return run.result(PlanStatus.TIMEOUT, f"no plan within {run.config.max_time} s")
-        opt = optimistic_instances(store, run.instantiated, run.config.max_level)
+        opt = optimistic_instances(
+            store, run.instantiated, run.config.max_level, shared=lambda b: not run.deferred(b)
+        )
+        _update_costs(run, opt)
+        if evaluated is not None:
+            realized = _realize(run, evaluated, opt)
+            if realized is not None:
+                return run.result(PlanStatus.SOLVED, "", realized)
         found = _search(run, opt)
         if isinstance(found, PlanResult):
             return found
@@ -166,11 +177,12 @@ def _focused(run: _Run) -> PlanResult:
                 continue
             return run.result(PlanStatus.UNSOLVABLE, _unsolvable_message(run))
         actions, cost = found
-        per_step = _retrace(run, actions, opt)
+        per_step, trace = _replayed(_retrace(run, actions, opt))
         needed = [i for insts in per_step for i in insts if not run.deferred(i.stream)]
         if not needed:
             return run.result(PlanStatus.SOLVED, "", _final_plan(run, actions, per_step, cost))
-        _evaluate(run, needed)
+        real = _evaluate(run, needed, trace)
+        evaluated = _Evaluated(actions, [i for insts in per_step for i in insts], trace, real)
     return run.result(
         PlanStatus.UNSOLVABLE, f"no plan after {run.config.max_iterations} iterations"
     )
@@ -199,21 +211,94 @@ def _reenable(store: StreamStore) -> bool:
     return bool(disabled)
 
 
-def _evaluate(run: _Run, needed: list[OptInstance]) -> None:
-    """Evaluate a stream plan in order; placeholders map to the real outputs as they come."""
+def _evaluate(run: _Run, needed: list[OptInstance], trace: _Trace) -> dict[int, dict[str, str]]:
+    """Evaluate a stream plan in order; each placeholder input takes the real output of the
+    producer the trace chose for it. Returns, per evaluated instance (by id), its placeholder
+    outputs -> the real names."""
     store = run.store
-    real: dict[str, str] = {}
+    real: dict[int, dict[str, str]] = {}  # id(evaluated instance) -> placeholder -> real name
     for inst in needed:
-        inputs = tuple(real.get(x, x) for x in inst.inputs)
+        sources = trace.sources.get(id(inst), {})
+        inputs = tuple(
+            real.get(id(sources[x]), {}).get(x, x) if x in sources else x for x in inst.inputs
+        )
         if any(is_optimistic(x) for x in inputs):
             continue  # its producer failed this time
         rec = store.record(inst.stream, inputs)
         out = store.call(rec)
         rec.enabled = False
+        log.debug("  %s(%s) -> %s", inst.stream.schema.name, " ".join(inputs), out)
+        if out is None and rec.outputs:  # bound to inputs evaluated before: their last output
+            out = rec.outputs[-1]
         if out is not None:
-            real.update(zip(inst.outputs, out, strict=True))
+            real[id(inst)] = dict(zip(inst.outputs, out, strict=True))
         if store.out_of_time():
-            return
+            break
+    return real
+
+
+@dataclass(frozen=True)
+class _Evaluated:
+    """A plan over placeholders whose stream plan was evaluated."""
+
+    actions: tuple[tuple[str, tuple[str, ...]], ...]
+    instances: list[OptInstance]  # producers first
+    trace: _Trace
+    real: dict[int, dict[str, str]]  # id(evaluated instance) -> placeholder -> real name
+
+
+def _realize(run: _Run, done: _Evaluated, opt: list[OptInstance]) -> Plan | None:
+    """The evaluated plan with every placeholder replaced by the value its producer gave (and
+    deferred placeholders by those of the same deferred instances on the real inputs), if it is
+    still a plan over the real facts that needs no further evaluation; else None. Saves the
+    search that would find it again, and stops the optimistic search from wandering to other
+    plans once one plan's streams have all succeeded."""
+    deferred = {i.key: i for i in opt if run.deferred(i.stream)}
+    bound: dict[int, dict[str, str]] = {}
+    for inst in done.instances:
+        inputs = _bind(inst.inputs, done.trace.sources.get(id(inst), {}), bound)
+        if inputs is None:
+            return None
+        if run.deferred(inst.stream):
+            now = deferred.get((inst.stream.schema.name, inputs))
+            if now is None:
+                return None
+            bound[id(inst)] = dict(zip(inst.outputs, now.outputs, strict=True))
+        elif id(inst) in done.real:
+            bound[id(inst)] = done.real[id(inst)]
+        else:
+            return None  # it failed, or was not reached
+    actions = []
+    for (name, args), sources in zip(done.actions, done.trace.arg_sources, strict=False):
+        real_args = _bind(args, sources, bound)
+        if real_args is None:
+            return None
+        actions.append((name, real_args))
+    traced = _retrace(run, tuple(actions), opt)
+    if traced is None:
+        return None
+    per_step, _ = traced
+    if any(not run.deferred(i.stream) for insts in per_step for i in insts):
+        return None
+    log.debug("iteration %d: the evaluated plan holds with the real values", run.iterations)
+    return _final_plan(run, tuple(actions), per_step, _plan_cost(run, tuple(actions), opt))
+
+
+def _bind(
+    names: tuple[str, ...], sources: dict[str, OptInstance], bound: dict[int, dict[str, str]]
+) -> tuple[str, ...] | None:
+    out = [bound.get(id(sources[x]), {}).get(x) if x in sources else x for x in names]
+    return None if None in out else tuple(o for o in out if o is not None)
+
+
+def _plan_cost(
+    run: _Run, actions: tuple[tuple[str, tuple[str, ...]], ...], opt: list[OptInstance]
+) -> float:
+    """The plan's cost as Fast Downward would count it (scaled costs, compiled domain)."""
+    scaled = {t: float(max(0, round(v * COST_SCALE))) for t, v in run.costs.items()}
+    sem = Semantics(run.compiled.domain, _object_types(run, opt), scaled)
+    init = run.store.facts | run.store.rejected | {a for i in opt for a in i.certified}
+    return replay(sem, init, actions).cost
 
 
 # -------------------------------------------------------------------------------- incremental
@@ -228,12 +313,13 @@ def _incremental(run: _Run) -> PlanResult:
         opt = optimistic_instances(
             store, lambda b: run.deferred(b) and run.instantiated(b), run.config.max_level
         )
+        _update_costs(run, opt)
         found = _search(run, opt)
         if isinstance(found, PlanResult):
             return found
         if found is not None:
             actions, cost = found
-            per_step = _retrace(run, actions, opt)
+            per_step, _ = _replayed(_retrace(run, actions, opt))
             return run.result(PlanStatus.SOLVED, "", _final_plan(run, actions, per_step, cost))
         level += 1
         if not _one_level(run):
@@ -277,25 +363,31 @@ def _object_types(run: _Run, opt: list[OptInstance]) -> dict[str, str]:
     return types
 
 
-def _search(
-    run: _Run, opt: list[OptInstance]
-) -> tuple[tuple[tuple[str, tuple[str, ...]], ...], float] | PlanResult | None:
-    """Search once: (actions, cost), None when the task is unsolvable, or a final result."""
+def _update_costs(run: _Run, opt: list[OptInstance]) -> None:
+    """Function values for the real facts and the optimistic ones of ``opt``."""
     store = run.store
-    facts = store.facts | store.rejected
     run.costs = function_values(
         run.problem,
-        facts | {a for i in opt for a in i.certified},
+        store.facts | store.rejected | {a for i in opt for a in i.certified},
         run.cost_cache,
         lambda n: store.values.get(n, n),
     )
+
+
+def _search(
+    run: _Run, opt: list[OptInstance]
+) -> tuple[tuple[tuple[str, tuple[str, ...]], ...], float] | PlanResult | None:
+    """Search once (costs from :func:`_update_costs`): (actions, cost), None when the task is
+    unsolvable, or a final result."""
+    store = run.store
+    facts = store.facts | store.rejected
     task = compile_task(
         run.problem, facts, opt, run.costs, _object_types(run, opt), run.negative_tests
     )
     budget = min(run.config.search_time, run.remaining())
     if budget <= 0:
         return run.result(PlanStatus.TIMEOUT, f"no plan within {run.config.max_time} s")
-    res: ClassicalPlan = run.classical.solve(run.compiled.text, task.problem_text, max_time=budget)
+    res: ClassicalPlan = run.classical.solve(run.domain_text, task.problem_text, max_time=budget)
     run.translate_time += res.translate_time
     run.search_time += res.search_time
     log.debug(
@@ -306,53 +398,114 @@ def _search(
     if res.status is ClassicalStatus.UNSOLVABLE:
         return None
     if res.status is ClassicalStatus.TIMEOUT:
-        return run.result(PlanStatus.TIMEOUT, f"classical search: {res.message}")
+        return run.result(PlanStatus.TIMEOUT, f"classical planner: {res.message}")
+    if res.status is ClassicalStatus.CRASHED:
+        return run.result(PlanStatus.CRASHED, f"classical planner: {res.message}")
     return run.result(PlanStatus.ERROR, f"classical planner {res.status.value}: {res.message}")
 
 
 # ---------------------------------------------------------------------------------- retrace
 
 
+class _Trace:
+    """Which optimistic instances a plan relies on, and which producer feeds each placeholder
+    input. Placeholders may be shared by several instances (see :mod:`instances`); the producer
+    of a placeholder is chosen from the facts its consumer needs: the instance most recently
+    chosen that certifies them, else the cheapest lowest-level one that does."""
+
+    def __init__(self, opt: list[OptInstance], real: set[Atom]) -> None:
+        ordered = sorted(opt, key=lambda i: (i.level, i.stream.info.expected_cost))
+        self.certifiers: dict[Atom, list[OptInstance]] = {}
+        self.first: dict[str, OptInstance] = {}
+        for i in ordered:
+            for o in i.outputs:
+                self.first.setdefault(o, i)
+            for a in i.certified:
+                if a not in real:
+                    self.certifiers.setdefault(a, []).append(i)
+        self.arg_sources: list[dict[str, OptInstance]] = []  # per step: argument -> producer
+        self.wanted: set[Atom] = set()  # every fact the plan relies on
+        self.chosen: list[OptInstance] = []  # in the order first needed
+        self._chosen_ids: set[int] = set()
+        self.sources: dict[int, dict[str, OptInstance]] = {}  # id(consumer) -> input -> producer
+
+    def step(self, facts: list[Atom], args: tuple[str, ...]) -> list[OptInstance]:
+        """Instances newly needed for a step's (or the goal's) facts and arguments, producers
+        first."""
+        out: list[OptInstance] = []
+        for a in facts:
+            if a in self.certifiers:
+                self._need(self._certifier(a), out)
+        sources: dict[str, OptInstance] = {}
+        for x in args:
+            if x in self.first:
+                sources[x] = producer = self._producer(x, facts)
+                self._need(producer, out)
+        self.arg_sources.append(sources)
+        return out
+
+    def _certifier(self, fact: Atom) -> OptInstance:
+        for c in reversed(self.chosen):
+            if fact in c.certified:
+                return c
+        # the one certifying most of what the whole plan relies on (a placeholder's facts may be
+        # needed at different steps); ties: the first (lowest level, cheapest)
+        wanted = self.wanted
+        return max(self.certifiers[fact], key=lambda c: len(wanted.intersection(c.certified)))
+
+    def _producer(self, x: str, context: list[Atom]) -> OptInstance:
+        """The instance standing behind placeholder ``x`` where ``context`` is needed."""
+        mentioned = [a for a in context if x in a.args and a in self.certifiers]
+        for a in mentioned:
+            c = self._certifier(a)
+            if x in c.outputs:
+                return c
+        for c in reversed(self.chosen):
+            if x in c.outputs:
+                return c
+        return self.first[x]
+
+    def _need(self, inst: OptInstance, out: list[OptInstance]) -> None:
+        if id(inst) in self._chosen_ids:
+            return
+        self.chosen.append(inst)  # before its producers: guards against cycles
+        self._chosen_ids.add(id(inst))
+        sources: dict[str, OptInstance] = {}
+        for x in inst.inputs:
+            if x in self.first:
+                sources[x] = producer = self._producer(x, list(inst.domain))
+                self._need(producer, out)
+        self.sources[id(inst)] = sources
+        out.append(inst)
+
+
 def _retrace(
     run: _Run, actions: tuple[tuple[str, tuple[str, ...]], ...], opt: list[OptInstance]
-) -> list[list[OptInstance]]:
+) -> tuple[list[list[OptInstance]], _Trace] | None:
     """Per plan step (plus one last entry for the goal), the optimistic instances it relies on,
-    producers first, each instance listed once (at its first use)."""
+    producers first, each instance listed once (at its first use); None if the plan is not
+    valid over the real and optimistic facts."""
     store = run.store
-    producer = {o: i for i in opt for o in i.outputs}
-    by_fact: dict[Atom, OptInstance] = {}
-    for i in sorted(opt, key=lambda i: (i.level, i.stream.info.expected_cost)):
-        for a in i.certified:
-            if a not in store.facts:
-                by_fact.setdefault(a, i)
+    trace = _Trace(opt, store.facts)
     sem = Semantics(run.compiled.domain, _object_types(run, opt), run.costs)
-    init = store.facts | store.rejected | set(by_fact)
+    init = store.facts | store.rejected | set(trace.certifiers)
     support = preimage(sem, init, actions, compile_goal(run.problem, run.negative_tests))
     if support is None:
-        raise RuntimeError("the classical plan does not replay under the domain semantics")
-    done: set[int] = set()
+        return None
+    trace.wanted = set().union(*support)
     out: list[list[OptInstance]] = []
     for k, facts in enumerate(support):
-        mine: list[OptInstance] = []
-        wanted = [by_fact[a] for a in sorted(facts) if a in by_fact]
-        if k < len(actions):
-            wanted += [producer[x] for x in actions[k][1] if x in producer]
-        for inst in wanted:
-            _with_producers(inst, producer, done, mine)
-        out.append(mine)
-    return out
+        args = actions[k][1] if k < len(actions) else ()
+        out.append(trace.step(sorted(facts), args))
+    return out, trace
 
 
-def _with_producers(
-    inst: OptInstance, producer: dict[str, OptInstance], done: set[int], out: list[OptInstance]
-) -> None:
-    if id(inst) in done:
-        return
-    done.add(id(inst))
-    for x in inst.inputs:
-        if x in producer:
-            _with_producers(producer[x], producer, done, out)
-    out.append(inst)
+def _replayed(
+    traced: tuple[list[list[OptInstance]], _Trace] | None,
+) -> tuple[list[list[OptInstance]], _Trace]:
+    if traced is None:
+        raise RuntimeError("the classical plan does not replay under the domain semantics")
+    return traced
 
 
 def _final_plan(

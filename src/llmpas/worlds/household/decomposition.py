@@ -24,7 +24,7 @@ from llmpas.execution.csubbt import Constraint, SubAction, SubtreeSpec, Values
 from llmpas.execution.plan_builder import PlanBuilder, Recipe, failing_literal
 from llmpas.execution.space import Dimension
 from llmpas.execution.world import Observation, SkillResult
-from llmpas.language.logic import Atom
+from llmpas.language.logic import Atom, Not
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics
 from llmpas.planning.result import Plan, PlanStep
@@ -34,6 +34,7 @@ from llmpas.worlds.household.problem import (
     believe_at,
     believed_place,
 )
+from llmpas.worlds.household.state import PROPERTIES
 from llmpas.worlds.household.values import ArmTarget, BaseConf, Grasp, Motion, Placement
 
 BASE_ACTIONS = ("pick", "place", "scan_table", "scan_drawer", "scan_cover", "open", "close")
@@ -413,10 +414,25 @@ class Builder(PlanBuilder):
 
     def process(self, step: PlanStep) -> Recipe:
         obj, region = step.args[0], step.args[1]
+        revealed: dict[str, Atom] = {}
+
+        def run(v: Values, c: Context) -> SkillResult:
+            result = c.robot.process(obj, region, step.action)
+            prop = result.data.get("reason")
+            if not result.ok and prop in PROPERTIES:  # e.g. it will not cool: it is dirty
+                revealed["fact"] = Atom(str(prop), (obj,))
+                c.belief.replace((), [revealed["fact"]])
+            return result
+
+        def failed(v: Values) -> Atom | Not:
+            fact = revealed.get("fact")
+            return Not(fact) if fact is not None else Atom(step.action, ())
+
+        blocked = Constraint(f"{step.action}-succeeds", lambda v, c: None, failed)
         return (), (
             self._look(lambda v, c: region, name="inspect"),
             self._check(step),
-            SubAction(step.action, lambda v, c: c.robot.process(obj, region, step.action)),
+            SubAction(step.action, run, on_failure=blocked),
         )
 
     def move(self, step: PlanStep) -> Recipe:
