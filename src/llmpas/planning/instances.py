@@ -107,7 +107,7 @@ class StreamStore:
         self.deadline = deadline
         self.facts: set[Atom] = set(problem.init)
         self.rejected: set[Atom] = set()
-        self.namer = ValueNamer(taken=problem.all_objects, prefix="s", known=problem.objects)
+        self.namer = ValueNamer(taken=problem.all_objects, prefix="s")
         self.values: dict[str, Any] = dict(problem.objects)
         self.records: dict[tuple[str, tuple[str, ...]], Record] = {}
         self.calls: Counter[str] = Counter()
