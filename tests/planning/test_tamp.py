@@ -228,7 +228,7 @@ def test_placeholders_are_shared_per_stream_output_and_level() -> None:
     # outputs; evaluated streams share one placeholder per (stream, output, level)
     planner = ScriptedPlanner([ClassicalPlan(ClassicalStatus.ERROR, (), None, 0.0, 0.0, "x")])
     problem = make_problem(WIDE, n_blocks=5, deferred_reach=False)
-    solve(problem, PlannerConfig(max_level=2), classical=planner)
+    solve(problem, PlannerConfig(max_level=2, share_placeholders=True), classical=planner)
     shared = _placeholders(planner.calls[0][1])
     # sample-pose at level 1; reach at levels 1 (real poses) and 2 (placeholder poses)
     assert len(shared) == 3
@@ -238,7 +238,7 @@ def test_placeholders_are_shared_per_stream_output_and_level() -> None:
 def test_deferred_placeholders_stay_one_per_instance() -> None:
     planner = ScriptedPlanner([ClassicalPlan(ClassicalStatus.ERROR, (), None, 0.0, 0.0, "x")])
     problem = make_problem(WIDE, n_blocks=5, deferred_reach=True)
-    solve(problem, PlannerConfig(max_level=2), classical=planner)
+    solve(problem, PlannerConfig(max_level=2, share_placeholders=True), classical=planner)
     reach = re.findall(r"\(reach (\S+) (\S+) (#o\d+)\)", planner.calls[0][1])
     assert len(reach) > 5
     assert len({q for _, _, q in reach}) == len(reach)  # one output per reach instance
@@ -247,7 +247,7 @@ def test_deferred_placeholders_stay_one_per_instance() -> None:
 def test_consumers_of_a_shared_placeholder_get_their_own_producers_value() -> None:
     regions = {"r1": (0.0, 3.0), "r2": (5.0, 11.0)}
     problem = make_problem(regions, n_blocks=3, n_goal=3, deferred_reach=False)
-    result = solve(problem, PlannerConfig(max_time=60))
+    result = solve(problem, PlannerConfig(max_time=60, share_placeholders=True))
     assert result.plan is not None
     facts = set(problem.init) | result.plan.certified
     reach = [a for a in facts if a.predicate == "reach"]

@@ -70,6 +70,7 @@ class TampBenchConfig:
     jobs: int = 1  # parallel trials (> 1: contended)
     memory_mb: int = 3072  # address-space limit of a trial's process
     keep_going: bool = False  # run larger sizes after a size with no solved trial
+    share: bool = False  # PlannerConfig.share_placeholders
     out_dir: Path = Path("results/tamp")
     executor: ExecutorSpec = field(default_factory=ExecutorSpec)
 
@@ -121,11 +122,16 @@ class Payload:
     max_time: float
     memory_mb: int
     jobs: int
+    share: bool = False
 
 
-def planner_config(mode: str, trial: int, max_time: float) -> PlannerConfig:
+def planner_config(mode: str, trial: int, max_time: float, share: bool = False) -> PlannerConfig:
     return PlannerConfig(
-        defer=(mode == "deferred"), max_time=max_time, search_time=max_time, seed=trial
+        defer=(mode == "deferred"),
+        max_time=max_time,
+        search_time=max_time,
+        seed=trial,
+        share_placeholders=share,
     )
 
 
@@ -139,7 +145,7 @@ def measure(p: Payload) -> dict[str, Any]:
     """Plan one trial in this process and validate its plan: the fields of a :class:`Trial`."""
     world, problem = make_problem(p.family, p.size, p.trial)
     cpu0, wall0 = _cpu(), time.perf_counter()
-    result = solve(problem, planner_config(p.mode, p.trial, p.max_time))
+    result = solve(problem, planner_config(p.mode, p.trial, p.max_time, p.share))
     cpu, wall = _cpu() - cpu0, time.perf_counter() - wall0
     plan = result.plan
     cpu1 = _cpu()
@@ -272,11 +278,18 @@ def jobs_for(config: TampBenchConfig, size: int, combos: Iterable[tuple[str, str
     code = code_fingerprint()
     for family, mode in combos:
         for trial in range(config.trials):
-            settings = asdict(planner_config(mode, trial, config.max_time))
+            settings = asdict(planner_config(mode, trial, config.max_time, config.share))
             digest = fingerprint([family, size, mode, trial, settings, config.memory_mb, code])
             key = f"{family}/n{size}/{mode}/trial{trial}/{digest}"
             payload = Payload(
-                family, size, mode, trial, config.max_time, config.memory_mb, config.jobs
+                family,
+                size,
+                mode,
+                trial,
+                config.max_time,
+                config.memory_mb,
+                config.jobs,
+                config.share,
             )
             out.append(Job(key, payload))
     return out
@@ -492,6 +505,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--keep-going", action="store_true", help="run sizes past an unsolved one")
     p.add_argument("--jobs", type=int, default=1, help="parallel trials (> 1: contended)")
     p.add_argument("--out", default="results/tamp", help="folder for table, plot and cache")
+    p.add_argument(
+        "--share-placeholders",
+        action="store_true",
+        help="one placeholder per stream output and level, as PDDLStream (not complete)",
+    )
     add_executor_arguments(p)
 
 
@@ -506,6 +524,7 @@ def command(args: argparse.Namespace, console: Console) -> int:
         keep_going=args.keep_going,
         out_dir=Path(args.out),
         executor=executor_from_args(args),
+        share=args.share_placeholders,
     )
     report = run_tamp(config, console)
     console.print(f"wrote {', '.join(str(p) for p in report.files)}")

@@ -15,6 +15,12 @@ class PlannerConfig:
     ``deferred`` are assumed satisfiable while planning and left for the executor; when False
     (nothing deferred: every stream computed; ``--no-defer``, formerly called "eager"), every
     stream is evaluated at planning time.
+
+    ``share_placeholders``: when True, instances of a stream evaluated while planning share one
+    placeholder per (stream, output, level), as in PDDLStream: far smaller tasks where a
+    ``forall`` ranges over placeholders (``llmpas bench tamp``), but not complete: on the
+    household's blocked-microwave task it exhausted every instance and reported a solvable task
+    unsolvable. Off by default (one placeholder per instance).
     """
 
     algorithm: Algorithm = "focused"
@@ -25,6 +31,7 @@ class PlannerConfig:
     search_time: float = 30.0  # per classical-planner call
     memory_mb: int = 4096
     seed: int = 0
+    share_placeholders: bool = False
 
     def __post_init__(self) -> None:
         if self.algorithm not in ("focused", "incremental"):

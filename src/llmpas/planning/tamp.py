@@ -162,7 +162,10 @@ def _focused(run: _Run) -> PlanResult:
         if store.out_of_time():
             return run.result(PlanStatus.TIMEOUT, f"no plan within {run.config.max_time} s")
         opt = optimistic_instances(
-            store, run.instantiated, run.config.max_level, shared=lambda b: not run.deferred(b)
+            store,
+            run.instantiated,
+            run.config.max_level,
+            shared=lambda b: run.config.share_placeholders and not run.deferred(b),
         )
         _update_costs(run, opt)
         if evaluated is not None:
