@@ -9,7 +9,8 @@ Each error renders as one line naming where the problem is: a file and place
 from __future__ import annotations
 
 import enum
-import re
+
+from llmpas.safetext import printable
 
 
 class ExitCode(enum.IntEnum):
@@ -63,13 +64,11 @@ class OutputError(LlmpasError):
     code = ExitCode.IO
 
 
-_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029\ud800-\udfff]")
-
-
 def one_line(text: str, limit: int = 1000) -> str:
     """``text`` as one printable line: control characters (newlines, terminal escapes) and lone
-    surrogates escaped, the middle cut out when longer than ``limit`` characters."""
-    safe = _CONTROL.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"), text)
+    surrogates escaped (:func:`llmpas.safetext.printable`), the middle cut out when longer than
+    ``limit`` characters."""
+    safe = printable(text, keep_newlines=False)
     if len(safe) <= limit:
         return safe
     half = (limit - 5) // 2

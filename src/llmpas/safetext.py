@@ -63,10 +63,10 @@ def printable(text: str, keep_newlines: bool = True) -> str:
         c = ord(m.group())
         return f"\\x{c:02x}" if c < 0x100 else f"\\u{c:04x}"
 
-    out = _UNPRINTABLE.sub(escape, str(text))
+    out = str(text)
     if not keep_newlines:
         out = out.replace("\n", "\\n").replace("\r", "\\r").replace("\t", "\\t")
-    return out
+    return _UNPRINTABLE.sub(escape, out)
 
 
 def one_line(text: str, limit: int = 200) -> str:
