@@ -44,6 +44,9 @@ class Request:
     grammar: str | None = None
     json_schema: Mapping[str, Any] | None = None
     tag: str = ""  # what the request is for (e.g. "flp-step1"); not part of the key
+    # what the prompt was made from (the anomaly as data, for backends that read it, such as a
+    # labelled oracle); not part of the key, never sent
+    situation: Any = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         if not self.messages:

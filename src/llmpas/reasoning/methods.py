@@ -27,6 +27,7 @@ from functools import cache
 from importlib import resources
 from string import Template
 
+from llmpas.language.logic import Formula
 from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal, Vocabulary, parse_goals
 from llmpas.reasoning.grammar import gbnf, json_schema, skill_gbnf
 from llmpas.reasoning.llm import LLM, Message, Request, Response
@@ -56,6 +57,7 @@ class Situation:
     history: str = ""  # earlier attempts that failed (for the deadlock guard's feedback)
     calls: Mapping[str, Call] = field(default_factory=dict)  # ProgPrompt: actions as functions
     objects: tuple[str, ...] = ()
+    constraint: Formula | None = None  # the anomaly's failed literal, as data (never shown)
 
     def fields(self, first_look: str = "") -> dict[str, str]:
         history = f"\n## Already tried without success\n{self.history}\n" if self.history else ""
@@ -157,6 +159,7 @@ class MethodConfig:
 class _Conversation:
     llm: LLM
     config: MethodConfig
+    situation: Situation | None = None
     exchanges: list[Exchange] = field(default_factory=list)
 
     def ask(
@@ -169,6 +172,7 @@ class _Conversation:
             max_tokens=self.config.max_tokens,
             seed=seed + repair if seed is not None and repair else seed,
             tag=tag,
+            situation=self.situation,
             **constrain,  # type: ignore[arg-type]
         )
         start = time.perf_counter()
@@ -247,7 +251,7 @@ def propose(
     With grammar decoding, the literals in ``exclude`` and every literal a validation rejected
     in an earlier answer are left out of the grammar: a small model cannot repeat them."""
     config = config or MethodConfig()
-    talk = _Conversation(llm, config)
+    talk = _Conversation(llm, config, situation)
     first_look = ""
     if config.method in ("flp", "flp-refer"):
         step1 = template("flp_step1").substitute(situation.fields())

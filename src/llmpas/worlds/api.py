@@ -1,0 +1,166 @@
+"""What a world supplies to LLM-PAS: parts, never a loop.
+
+A **world** (:class:`World`) is a plug-in found by name (``household``, ``pybullet``,
+``tabletop``, or ``mypkg.module:WORLD``). It lists its scenarios and opens a **session**
+(:class:`Session`) on one of them. A session supplies
+
+- the domain, the task goal and the problem for a goal from the current belief
+  (:meth:`Session.problem`), which the planner solves;
+- the decomposition of a plan into conditional subtrees (:meth:`Session.decompose`, a world's
+  :class:`~llmpas.execution.plan_builder.PlanBuilder`);
+- the robot and its perception, in an execution :class:`~llmpas.execution.context.Context`;
+- the reasoner's tables as data (:class:`~llmpas.reasoning.prompts.PromptTables`), the goal
+  vocabulary and an environment description from the belief;
+- a small search model (:class:`SearchModel`): what "searched", "found" and "where it may be"
+  mean in this world.
+
+:mod:`llmpas.system` plans, executes and asks the LLM; a world never does. Nothing here reads a
+world's true state except :meth:`Session.achieved` (a judge, afterwards) and a world's oracle,
+which lives in :mod:`llmpas.experiments`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from contextlib import AbstractContextManager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol, runtime_checkable
+
+from llmpas.execution.anomaly import AnomalyReport
+from llmpas.execution.context import Belief, Context
+from llmpas.execution.csubbt import SubtreeSpec
+from llmpas.execution.executor import ExecutorConfig
+from llmpas.language.domain import Domain
+from llmpas.language.logic import Formula
+from llmpas.language.problem import Problem
+from llmpas.planning import PlannerConfig
+from llmpas.planning.result import Plan
+from llmpas.reasoning.goals import Vocabulary
+from llmpas.reasoning.prompts import PromptTables
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """How a session runs, whatever the world. ``None`` fields: the world's own default."""
+
+    planner: PlannerConfig | None = None
+    executor: ExecutorConfig | None = None
+    seed: int | None = None  # None: the scenario's own seed
+    gui: bool = False  # open the simulator's window, where there is one
+    snapshots: bool = True  # keep images where the world makes them
+
+    def __post_init__(self) -> None:
+        if self.planner is not None and not math.isfinite(self.planner.max_time):
+            raise ValueError("the planner needs a finite max_time")
+
+
+@runtime_checkable
+class SearchModel(Protocol):
+    """What searching means in a world.
+
+    ``predicate``: the goal that looks at a place (``scanned``); ``location``: where an object
+    rests (``on``, object first, place second); ``detection``: the constraint name of a failed
+    detection (``Detected``)."""
+
+    predicate: str
+    location: str
+    detection: str
+
+    def places(self) -> tuple[str, ...]:
+        """Where the robot can look for an object: the arguments of ``(predicate P)``."""
+        ...
+
+    def looked_at(self, report: AnomalyReport) -> tuple[str, ...]:
+        """The places a failed detection looked at."""
+        ...
+
+    def lost(self, obj: str) -> bool:
+        """Whether the robot does not know where ``obj`` is (and does not hold it)."""
+        ...
+
+
+@runtime_checkable
+class Session(Protocol):
+    """One scenario of a world across planning rounds; its belief carries over."""
+
+    @property
+    def name(self) -> str: ...  # the scenario's name
+
+    @property
+    def task(self) -> str: ...  # the task goal, as PDDL text
+
+    @property
+    def domain(self) -> Domain: ...
+
+    @property
+    def context(self) -> Context: ...  # robot, perception, belief and rng
+
+    @property
+    def vocabulary(self) -> Vocabulary: ...  # the goal predicates and their arguments
+
+    @property
+    def prompts(self) -> PromptTables: ...  # actions, predicates, skill calls, objects
+
+    @property
+    def search(self) -> SearchModel: ...
+
+    @property
+    def planner(self) -> PlannerConfig: ...
+
+    @property
+    def executor(self) -> ExecutorConfig: ...
+
+    def problem(self, goal: Formula | str, index: int) -> Problem:
+        """The planning problem for ``goal`` from the current belief, in round ``index``."""
+        ...
+
+    def decompose(self, problem: Problem, plan: Plan) -> Sequence[SubtreeSpec]:
+        """The plan's conditional subtrees (called once per executed plan)."""
+        ...
+
+    def environment(self) -> str:
+        """The believed state, as short lines for a prompt."""
+        ...
+
+    def achieved(self) -> bool | None:
+        """The task judged in the world's true state, afterwards (None: the world has no judge;
+        the robot's belief decides)."""
+        ...
+
+    def save(self, folder: Path) -> list[Path]:
+        """The world's own files for a run folder (snapshots, a GIF, its log)."""
+        ...
+
+    @property
+    def timings(self) -> Mapping[str, float]: ...  # seconds the world counted (build, ...)
+
+
+@runtime_checkable
+class World(Protocol):
+    """A world plug-in: its scenarios and sessions on them."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def title(self) -> str: ...  # shown on reports ("PyBullet: Husky + Franka Panda")
+
+    def scenarios(self) -> Mapping[str, str]:
+        """Shipped scenario names and one line each."""
+        ...
+
+    def open(self, scenario: str, options: RunOptions) -> AbstractContextManager[Session]:
+        """A session on ``scenario`` (a shipped name, or a file the world reads); closed on
+        exit (a physics client disconnected, say). Unknown names: ``KeyError`` naming the known
+        ones; a bad file: an :class:`~llmpas.errors.InputError` naming it."""
+        ...
+
+
+def believed_lost(belief: Belief, obj: str, place: object | None) -> bool:
+    """An object is lost when the belief has no place for it and the robot does not hold it."""
+    return place is None and not belief.matching("atgrasp", obj)
+
+
+__all__ = ["RunOptions", "SearchModel", "Session", "World", "believed_lost"]
