@@ -8,22 +8,18 @@ from __future__ import annotations
 
 from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
-from functools import cache
-from importlib import resources
 from typing import Any
 
 import numpy as np
 
 from llmpas.execution.context import Belief
-from llmpas.language.domain import Domain, parse_domain
 from llmpas.language.logic import Atom, Formula
 from llmpas.language.problem import Problem
-from llmpas.language.streams import StreamSpec, parse_streams
 from llmpas.worlds.household.layout import Layout, ObjectSpec
 from llmpas.worlds.household.streams import DEFAULT_DEFERRED, make_streams
 from llmpas.worlds.household.values import BaseConf, Placement
+from llmpas.worlds.kitchen import load_domain, load_streams
 
-PACKAGE = "llmpas.worlds.household"
 PROCESS_PREDICATE = {"clean": "Sink", "cook": "Stove", "heat": "Microwave", "cool": "Fridge"}
 PROPERTY_PREDICATE = {
     "dirty": "Dirty",
@@ -32,19 +28,6 @@ PROPERTY_PREDICATE = {
     "heated": "Heated",
     "cooled": "Cooled",
 }
-
-
-@cache
-def _text(name: str) -> str:
-    return resources.files(PACKAGE).joinpath(name).read_text(encoding="utf-8")
-
-
-def load_domain() -> Domain:
-    return parse_domain(_text("domain.pddl"), "household/domain.pddl")
-
-
-def load_streams() -> StreamSpec:
-    return parse_streams(_text("stream.pddl"), "household/stream.pddl")
 
 
 def is_drawer(region: str) -> bool:

@@ -39,7 +39,7 @@ from llmpas.system import (
     close_loop,
     loop_markdown,
 )
-from llmpas.worlds.household.problem import load_domain
+from llmpas.worlds.kitchen import load_domain
 from llmpas.worlds.pybullet.decomposition import table_of
 from llmpas.worlds.pybullet.problem import believed_pose
 from llmpas.worlds.pybullet.run import PyBulletRun, RunConfig, Scenario, Session, resolve, save_run

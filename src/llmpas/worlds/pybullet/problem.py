@@ -1,7 +1,7 @@
 """The robot's side of the PyBullet world: static knowledge, believed state, planning problems.
 
-The domain and stream declarations are the household ones (``household/domain.pddl`` and
-``household/stream.pddl``), unchanged: only the stream implementations differ (real geometry).
+The domain and stream declarations are the kitchen's (``kitchen/domain.pddl`` and
+``kitchen/stream.pddl``), shared with the household: only the stream implementations differ.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import numpy as np
 from llmpas.execution.context import Belief
 from llmpas.language.logic import Atom, Formula
 from llmpas.language.problem import Problem
-from llmpas.worlds.household.problem import load_domain, load_streams
+from llmpas.worlds.kitchen import load_domain, load_streams
 from llmpas.worlds.pybullet.scene import SceneConfig
 from llmpas.worlds.pybullet.streams import DEFAULT_DEFERRED, Geometry, make_streams
 from llmpas.worlds.pybullet.values import BaseConf, ObjectPose
