@@ -651,13 +651,10 @@ GENERATED: list[Case] = [
     Case("option:--world", ("run", "nominal", "--world", "mars"), USAGE, ("--world", "'mars'")),
     Case("option:--method", ("run", "nominal", "--method", "cot"), USAGE, ("--method", "'cot'")),
     Case(
-        "option:--gui household", ("run", "nominal", "--gui", "--llm", "oracle"), USAGE, ("--gui",)
-    ),
-    Case(
         "option:pybullet scenario",
         ("run", "nosuch", "--world", "pybullet"),
         USAGE,
-        ("PyBullet scenario", "'nosuch'"),
+        ("no scenario 'nosuch' in pybullet",),
     ),
     Case("option:model name", ("model", "install", "no-such-model"), USAGE, ("no-such-model",)),
     Case(

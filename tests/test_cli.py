@@ -115,7 +115,7 @@ def test_run_with_the_oracle_writes_the_loop_report(
     assert main(["run", "state-change-apple", "--llm", "oracle", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "task done" in out and "(cleaned apple)" in out
-    assert (tmp_path / "loop.md").exists() and (tmp_path / "round0" / "report.html").exists()
+    assert (tmp_path / "loop.md").exists() and (tmp_path / "round-0" / "report.html").exists()
 
 
 def test_run_with_a_missing_cassette_is_one_line(
@@ -132,7 +132,7 @@ def test_run_object_loss_is_the_pybullet_world_with_its_oracle(
     assert main(["run", "object-loss", "--llm", "oracle", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
     assert "task done" in out and "(scanned table2)" in out
-    assert (tmp_path / "report.html").exists() and (tmp_path / "episode.gif").exists()
+    assert (tmp_path / "round-0" / "report.html").exists() and (tmp_path / "episode.gif").exists()
     assert list((tmp_path / "snapshots").glob("*.png"))
     loop = (tmp_path / "loop.md").read_text()  # both prompts and answers, the goals taken
     assert "#### first-look: prompt" in loop and "#### goals: answer" in loop
@@ -143,9 +143,15 @@ def test_run_pybullet_options_and_unknown_scenarios_are_one_line(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     assert main(["run", "state-change-apple", "--world", "pybullet", "--llm", "oracle"]) == 2
-    assert "no PyBullet scenario 'state-change-apple'" in _error_line(capsys)
-    assert main(["run", "state-change-apple", "--gui", "--llm", "oracle"]) == 2
-    assert "--gui and --no-llm apply to the PyBullet world" in _error_line(capsys)
+    assert "no scenario 'state-change-apple' in pybullet" in _error_line(capsys)
+    assert main(["run", "state-change-apple", "--world", "mypkg.nosuch:WORLD"]) == 2
+    assert "cannot import mypkg.nosuch" in _error_line(capsys)
+
+
+def test_run_without_reasoning_works_in_every_world(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["run", "state-change-apple", "--no-llm"]) == 1  # the anomaly, unresolved
+    out = capsys.readouterr().out
+    assert "round 0: goal (and (Cooled apple)) -> anomaly" in out and "not done" in out
 
 
 def test_old_eager_flag_means_no_defer_and_warns(

@@ -13,9 +13,9 @@ from collections.abc import Iterator
 import py_trees
 import pytest
 
+from llmpas.experiments.worlds import run_loop
 from llmpas.reasoning.goals import GoalStatus
 from llmpas.reasoning.models import DEFAULT_MODEL, model_path
-from llmpas.system import run_loop
 
 pytestmark = [
     pytest.mark.slow,

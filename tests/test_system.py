@@ -11,10 +11,9 @@ from pathlib import Path
 import py_trees
 import pytest
 
+from llmpas.experiments.worlds import ORACLE, LoopConfig, run_loop  # ORACLE: the upper bound
 from llmpas.reasoning.llm import Request, Response
 from llmpas.reasoning.methods import MethodConfig
-from llmpas.system import LoopConfig, run_loop
-from llmpas.system import oracle_factory as ORACLE  # the upper bound, by name
 
 
 @pytest.fixture(autouse=True)
@@ -82,9 +81,9 @@ def test_deadlock_guard_stops_a_repeated_exhausted_search() -> None:
 
 
 def test_a_negative_round_bound_is_refused_in_every_world() -> None:
-    from llmpas.worlds.pybullet.loop import LoopConfig as PyBulletLoopConfig
+    from llmpas.system import LoopSettings
 
-    for config in (LoopConfig, PyBulletLoopConfig):
+    for config in (LoopConfig, LoopSettings):
         with pytest.raises(ValueError, match="max_rounds"):
             config(max_rounds=-1)
 
@@ -254,7 +253,8 @@ def test_loop_report_shows_rounds_prompts_answers_and_goals(tmp_path: Path) -> N
     result = run_loop("state-change-apple", ReplayBackend(CASSETTES, mode="replay"))
     files = save_loop(result, tmp_path)
     names = {p.relative_to(tmp_path).as_posix() for p in files}
-    assert {"loop.json", "loop.md", "round0/report.md", "round1/report.md"} <= names
+    assert {"loop.json", "loop.md", "round-0/report.md", "round-1/report.md"} <= names
+    assert {"round-0/plan.xml", "round-1/plan.xml"} <= names  # the subtrees of every round
     text = (tmp_path / "loop.md").read_text()
     assert "**task done**" in text
     assert "(not (dirty apple))" in text  # the anomaly

@@ -11,8 +11,9 @@ from pathlib import Path
 import py_trees
 import pytest
 
+from llmpas.experiments.worlds import LoopConfig, run_loop
 from llmpas.reasoning.llm import LLMError, Request, Response
-from llmpas.system import LoopConfig, LoopResult, LoopStatus, loop_markdown, run_loop, save_records
+from llmpas.system import LoopResult, LoopStatus, loop_markdown, save_records
 
 SCENARIO = "object-loss-table"  # the task fails once (the cube is lost), then the LLM is asked
 
@@ -54,7 +55,7 @@ class Saver:
 def test_records_are_written_after_every_round_and_at_the_end(tmp_path: Path) -> None:
     saver = Saver(tmp_path)
     llm = Failing(LLMError("unused"), *["Goals: (and (scanned table2_right))"] * 20)
-    result = run_loop(SCENARIO, llm, LoopConfig(), saver)
+    result = run_loop(SCENARIO, llm, LoopConfig(), on_round=saver)
     assert result.status in (LoopStatus.DONE, LoopStatus.NOT_DONE)
     # one record per plan-and-execute step and per LLM answer, then the final one
     steps = len(result.rounds) + sum(r.proposal is not None for r in result.rounds)
@@ -77,7 +78,7 @@ def test_an_error_keeps_the_rounds_already_run(
 ) -> None:
     saver = Saver(tmp_path)
     with pytest.raises(type(error)):
-        run_loop(SCENARIO, Failing(error), LoopConfig(), saver)
+        run_loop(SCENARIO, Failing(error), LoopConfig(), on_round=saver)
     saved = json.loads((tmp_path / "loop.json").read_text())
     assert saved["status"] == status
     assert saved["error"]
@@ -90,13 +91,15 @@ def test_an_error_keeps_the_rounds_already_run(
 
 def test_the_deadline_stops_the_loop_cleanly_between_steps(tmp_path: Path) -> None:
     from llmpas.system import close_loop
-    from llmpas.worlds.household.loop_adapter import HouseholdLoopWorld
-    from llmpas.worlds.household.run import scenario_path
+    from llmpas.worlds.household.decomposition import ExplorationConfig
+    from llmpas.worlds.household.plugin import HouseholdSession, scenario_path
     from llmpas.worlds.household.scenario import load_scenario
 
     ticks = iter(range(0, 10_000, 10))  # a clock that advances 10 s at every look
     config = LoopConfig(deadline=25.0)
-    world = HouseholdLoopWorld.open(load_scenario(scenario_path(SCENARIO)), config.run)
+    world = HouseholdSession.open(
+        load_scenario(scenario_path(SCENARIO)), config.options, ExplorationConfig()
+    )
     llm = Failing(LLMError("unused"), *["Goals: (and (scanned table2_right))"] * 9)
     saver = Saver(tmp_path)
     result = close_loop(world, llm, config, saver, clock=lambda: float(next(ticks)))

@@ -17,10 +17,11 @@ from pathlib import Path
 import py_trees
 import pytest
 
+from llmpas.experiments.worlds import LoopConfig
 from llmpas.reasoning.goals import parse_goals
-from llmpas.system import LoopConfig, LoopStatus, close_loop, save_records
-from llmpas.worlds.household.loop_adapter import HouseholdLoopWorld
-from llmpas.worlds.household.run import scenario_path
+from llmpas.system import LoopStatus, close_loop, save_records
+from llmpas.worlds.household.decomposition import ExplorationConfig
+from llmpas.worlds.household.plugin import HouseholdSession, scenario_path
 from llmpas.worlds.household.scenario import load_scenario
 
 from .tiny_model import needs_tiny_model, tiny_backend
@@ -36,7 +37,9 @@ def clean_blackboard() -> Iterator[None]:
 @needs_tiny_model
 def test_closed_loop_with_a_tiny_model_on_llama_cpp(tmp_path: Path) -> None:
     config = LoopConfig(max_rounds=1)
-    world = HouseholdLoopWorld.open(load_scenario(scenario_path("object-loss-table")), config.run)
+    world = HouseholdSession.open(
+        load_scenario(scenario_path("object-loss-table")), config.options, ExplorationConfig()
+    )
     llm = tiny_backend(n_ctx=4096)
     result = close_loop(world, llm, config, partial(save_records, folder=tmp_path))
 

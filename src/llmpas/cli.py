@@ -348,15 +348,35 @@ def _one_line_errors(command: Handler) -> Handler:
     return handler
 
 
-# ---------------------------------------------------------------------------- execute / bt
+# ------------------------------------------------------------------- worlds: execute / bt / run
 
 
-def _scenario_file(name: str) -> Path:
-    """A shipped household scenario's file, or the given .toml (unknown names: usage)."""
-    from llmpas.worlds.household.run import scenario_path
+def _world_name(args: argparse.Namespace) -> str:
+    """``--world``, else the registered world that ships the scenario (a file: household)."""
+    from llmpas.experiments.worlds import world_of
+
+    if args.world:
+        return str(args.world)
+    try:
+        return world_of(args.scenario)
+    except UsageError as e:  # an unknown scenario name
+        raise CliError(str(e)) from None
+
+
+def _scenario_arg(world: str, name: str) -> str:
+    """The household reads a scenario file; other worlds take their shipped names (an unknown
+    name: a usage error listing them)."""
+    if world != "household":
+        from llmpas.experiments.worlds import load_world
+
+        known = load_world(world).scenarios()
+        if name not in known and not Path(name).is_file():
+            raise CliError(f"no scenario {name!r} in {world}; known: {', '.join(sorted(known))}")
+        return name
+    from llmpas.worlds.household.plugin import scenario_path
 
     try:
-        return scenario_path(name)
+        return str(scenario_path(name))
     except FileNotFoundError as e:
         raise CliError(str(e)) from None
     except OSError as e:  # a name too long for a path, say
@@ -364,26 +384,23 @@ def _scenario_file(name: str) -> Path:
 
 
 @contextmanager
-def _naming(path: Path) -> Iterator[None]:
-    """Problem-language errors raised while the problem of the scenario ``path`` is built (its
-    goal names an unknown predicate, say) name the file."""
+def _naming(scenario: str) -> Iterator[None]:
+    """Problem-language errors raised while the problem of a scenario file is built (its goal
+    names an unknown predicate, say) name the file."""
     try:
         yield
     except LanguageError as e:
-        if str(e).startswith(str(path)):
+        if str(e).startswith(scenario):
             raise
-        raise InputError(f"{path}: task.goal: {e}") from None
+        raise InputError(f"{scenario}: task.goal: {e}") from None
 
 
-def _run_household(args: argparse.Namespace, console: Console) -> Any:
-    from llmpas.worlds.household.run import RunConfig, run_scenario
-    from llmpas.worlds.household.scenario import load_scenario
+def _options(args: argparse.Namespace) -> Any:
+    from llmpas.worlds.api import RunOptions
 
-    config = RunConfig(planner=_planner_config(args), seed=args.seed)
-    path = _scenario_file(args.scenario)
-    scenario = load_scenario(path)
-    with console.status(f"planning and executing {args.scenario} ..."), _naming(path):
-        return run_scenario(scenario, config)
+    return RunOptions(
+        planner=_planner_config(args), seed=args.seed, gui=bool(getattr(args, "gui", False))
+    )
 
 
 def _planning_failed(result: PlanResult) -> CliError | PlannerError:
@@ -394,60 +411,62 @@ def _planning_failed(result: PlanResult) -> CliError | PlannerError:
 
 
 def _cmd_execute(args: argparse.Namespace, console: Console) -> int:
-    from llmpas.execution.report import save_episode
+    from llmpas.experiments.worlds import load_world
+    from llmpas.system import run_once
 
-    run = _run_household(args, console)
-    if run.episode is None:
-        raise _planning_failed(run.plan)
-    ep = run.episode
+    name = _world_name(args)
+    world = load_world(name)
+    scenario = _scenario_arg(name, args.scenario)
+    with console.status(f"planning and executing {args.scenario} ..."), _naming(scenario):
+        result = run_once(world, scenario, _options(args), args.out)
+    rnd = result.rounds[0]
+    ep = rnd.episode
+    if ep is None:
+        raise _planning_failed(rnd.plan)
+    steps = rnd.plan.plan.steps if rnd.plan.plan else ()
     if args.out:
-        files = save_episode(ep, Path(args.out), specs=list(run.specs))
-        console.print(f"wrote {len(files)} files to {args.out}")
-        steps = [str(s) for s in run.plan.plan.steps]
-        plan_time = run.plan.stats.total_time
-        _web_report(args, console, task=str(run.scenario.goal), plan=steps, plan_time=plan_time)
+        console.print(f"wrote the episode folder {args.out}")
+        plan_time = rnd.plan.stats.total_time
+        shown = [str(s) for s in steps]
+        _web_report(
+            args, console, world=world.title, task=rnd.goal, plan=shown, plan_time=plan_time
+        )
     if args.json:
         sys.stdout.write(json.dumps(ep.to_json(), indent=2) + "\n")
-        return 0 if ep.succeeded else 1
+        return 0 if result.success else 1
     console.print(
-        f"plan: {len(run.plan.plan.steps)} actions in {len(run.specs)} subtrees, "
-        f"planned in {run.plan.stats.total_time:.2f} s"
+        f"plan: {len(steps)} actions in {len(rnd.specs)} subtrees, "
+        f"planned in {rnd.plan.stats.total_time:.2f} s"
     )
     for label in ep.subtrees:
-        console.print(f"  - {label}")
-    if ep.succeeded:
+        console.print(f"  - {label}", highlight=False, markup=False)
+    if ep.succeeded and result.success:
         console.print(f"[bold green]success[/] ({ep.retries} retries, {ep.ticks} ticks)")
         return 0
     if ep.anomaly is not None:
-        console.print("[bold yellow]anomaly[/]: " + ep.anomaly.describe(), highlight=False)
+        console.print("[bold yellow]anomaly[/]: " + escape(ep.anomaly.describe()), highlight=False)
         return 1
-    console.print(f"[bold red]{ep.status.value}[/]: {ep.message}")
+    console.print(f"[bold red]{ep.status.value}[/]: {escape(ep.message or result.message)}")
     return 1
 
 
 def _cmd_bt(args: argparse.Namespace, console: Console) -> int:
     from llmpas.execution.export import render_png, to_ascii, to_btcpp_files
-    from llmpas.worlds.household.decomposition import build_specs
-    from llmpas.worlds.household.problem import make_problem
-    from llmpas.worlds.household.run import belief_from, household_for
-    from llmpas.worlds.household.scenario import load_scenario
+    from llmpas.experiments.worlds import load_world
+    from llmpas.system import plan
+    from llmpas.worlds.api import RunOptions
 
-    path = _scenario_file(args.scenario)
-    scenario = load_scenario(path)
-    house = household_for(scenario)
-    import numpy as np
-
-    with _naming(path):
-        problem = make_problem(
-            house, belief_from(house, scenario), scenario.goal, np.random.default_rng(args.seed)
-        )
-    result = solve(problem, _planner_config(args))
-    if result.plan is None:
-        raise _planning_failed(result)
-    specs = build_specs(house, problem, result.plan)
+    name = _world_name(args)
+    scenario = _scenario_arg(name, args.scenario)
+    options = RunOptions(planner=_planner_config(args), seed=args.seed)
+    with _naming(scenario), load_world(name).open(scenario, options) as session:
+        result, problem = plan(session, session.task, 0)
+        if result.plan is None:
+            raise _planning_failed(result)
+        specs = list(session.decompose(problem, result.plan))
     if args.bt == "show":
         for spec in specs:
-            console.print(to_ascii(spec), highlight=False)
+            console.print(to_ascii(spec), highlight=False, markup=False)
         if args.png:
             out = Path(args.png)
             out.mkdir(parents=True, exist_ok=True)
@@ -456,182 +475,108 @@ def _cmd_bt(args: argparse.Namespace, console: Console) -> int:
             console.print(f"wrote {len(specs)} PNG files to {out}")
         return 0
     out = Path(args.out)
-    for name, text in to_btcpp_files(specs).items():
-        atomic_write(out / name, text)
+    for file, text in to_btcpp_files(specs).items():
+        atomic_write(out / file, text)
     console.print(f"wrote BehaviorTree.CPP v4 XML of {len(specs)} subtrees to {out}")
     return 0
 
 
+def _add_world_option(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--world",
+        help="household, pybullet, tabletop, or your own package.module:WORLD "
+        "(default: the world that ships the scenario; a .toml file: household)",
+    )
+
+
 def _add_execute(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    p = sub.add_parser("execute", help="plan and execute a household scenario (no LLM)")
-    p.add_argument("scenario", help="a shipped scenario name (e.g. object-loss-table) or a .toml")
-    p.add_argument("--out", help="folder for episode.json, report.md/html and the CSubBT XML")
+    scenario_help = "a shipped scenario name (e.g. object-loss-table) or a household .toml"
+    p = sub.add_parser("execute", help="plan and execute a scenario once (no LLM)")
+    p.add_argument("scenario", help=scenario_help)
+    p.add_argument("--out", help="run folder: loop.json, round-0/ (episode, reports, CSubBT XML)")
     p.add_argument("--json", action="store_true", help="print the episode as JSON")
+    p.add_argument("--gui", action="store_true", help="open the simulator window (PyBullet)")
+    _add_world_option(p)
     _add_planner_options(p)
     p.set_defaults(handler=_cmd_execute, seed=None)
     bt = sub.add_parser("bt", help="the conditional behaviour subtrees of a scenario's plan")
     bsub = bt.add_subparsers(dest="bt", required=True)
     exp = bsub.add_parser("export", help="write BehaviorTree.CPP v4 XML")
-    exp.add_argument("scenario")
+    exp.add_argument("scenario", help=scenario_help)
     exp.add_argument("--out", default="bt")
+    _add_world_option(exp)
     _add_planner_options(exp)
     exp.set_defaults(handler=_cmd_bt)
     show = bsub.add_parser("show", help="print the subtrees (and render PNGs with --png DIR)")
-    show.add_argument("scenario")
+    show.add_argument("scenario", help=scenario_help)
     show.add_argument("--png", help="folder for one PNG per subtree (needs graphviz)")
+    _add_world_option(show)
     _add_planner_options(show)
     show.set_defaults(handler=_cmd_bt)
 
 
-# ----------------------------------------------------------------------------------- run
-
-
-def _llm(spec: str, record: str | None) -> Any:
+def _llm(spec: str, record: str | None, world: str = "household") -> Any:
     """``oracle`` | ``replay:DIR`` | ``openai:MODEL[@BASE_URL]`` | ``llama-cpp[:PATH]``."""
+    from llmpas.experiments.worlds import llm_for
+
     try:
-        return _make_llm(spec, record)
+        return llm_for(spec, record, world)
     except LlmpasError:
         raise
     except ValueError as e:
-        raise CliError(f"--llm {spec}: {e}") from None
-
-
-def _make_llm(spec: str, record: str | None) -> Any:
-    from llmpas.reasoning.backends.llamacpp import LlamaCppBackend
-    from llmpas.reasoning.backends.openai_http import OpenAIBackend
-    from llmpas.reasoning.backends.replay import ReplayBackend
-    from llmpas.reasoning.models import DEFAULT_MODEL, model_path
-    from llmpas.system import oracle_factory
-
-    kind, _, arg = spec.partition(":")
-    if kind == "oracle":
-        if record:
-            raise CliError("--record does not apply to the oracle")
-        return oracle_factory
-    if kind == "replay":
-        if not arg:
-            raise CliError("--llm replay:DIR needs the cassette folder")
-        return ReplayBackend(Path(arg), mode="replay")
-    if kind == "openai":
-        model, _, base_url = arg.partition("@")
-        if not model:
-            raise CliError("--llm openai:MODEL[@BASE_URL] needs a model name")
-        inner: Any = OpenAIBackend(model, base_url=base_url or None)
-    elif kind == "llama-cpp":
-        path = Path(arg) if arg else model_path(DEFAULT_MODEL)
-        inner = LlamaCppBackend(path)
-    else:
-        raise CliError(f"--llm {spec!r}: expected oracle, replay:DIR, openai:MODEL or llama-cpp")
-    return ReplayBackend(Path(record), inner=inner, mode="auto") if record else inner
-
-
-PYBULLET_SCENARIOS = ("object-loss", "action-blocking")
-
-
-def _world(args: argparse.Namespace) -> str:
-    """``--world``, else pybullet for its own scenarios, else household."""
-    if args.world:
-        return str(args.world)
-    return "pybullet" if args.scenario in PYBULLET_SCENARIOS else "household"
-
-
-def _import_quietly(module: str) -> None:
-    """Import ``module`` with stderr sent to /dev/null (pybullet prints its build date there)."""
-    import importlib
-
-    saved, devnull = os.dup(2), os.open(os.devnull, os.O_WRONLY)
-    try:
-        os.dup2(devnull, 2)
-        importlib.import_module(module)
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
-        os.close(devnull)
-
-
-def _cmd_run_pybullet(args: argparse.Namespace, console: Console) -> int:
-    _import_quietly("pybullet")
-    from llmpas.reasoning.methods import MethodConfig
-    from llmpas.worlds.pybullet import cli as pb
-    from llmpas.worlds.pybullet.run import scenarios
-
-    if args.scenario not in scenarios():
-        known = ", ".join(sorted(scenarios()))
-        raise CliError(f"no PyBullet scenario {args.scenario!r}; PyBullet scenarios: {known}")
-    try:
-        method = MethodConfig(method=args.method, decoding=args.decoding)
-        llm = "oracle" if args.llm == "oracle" else None
-        if llm is None and not args.no_llm:
-            llm = _llm(args.llm, args.record)
-        echo = partial(console.print, highlight=False, markup=False)  # LLM text is not markup
-        code = pb.run(args, llm, method, echo=echo)
-        task = scenarios()[args.scenario].goal
-        _web_report(args, console, world="PyBullet: Husky + Franka Panda", task=task)
-        return code
-    except LlmpasError:
-        raise
-    except (KeyError, ValueError) as e:
-        raise CliError(str(e)) from None
+        raise CliError(f"--llm {e}") from None
 
 
 def _cmd_run(args: argparse.Namespace, console: Console) -> int:
+    from llmpas.experiments.worlds import load_world
     from llmpas.reasoning.llm import LLMError
     from llmpas.reasoning.methods import MethodConfig
-    from llmpas.system import LoopConfig, run_loop, save_records
-    from llmpas.worlds.household.run import RunConfig
-    from llmpas.worlds.household.scenario import load_scenario
+    from llmpas.system import LoopSettings, run, run_once
 
-    if _world(args) == "pybullet":
-        return _cmd_run_pybullet(args, console)
-    if args.gui or args.no_llm:
-        raise CliError("--gui and --no-llm apply to the PyBullet world (--world pybullet)")
-    records = None if not args.out else partial(save_records, folder=Path(args.out))
+    name = _world_name(args)
+    world = load_world(name)
+    scenario = _scenario_arg(name, args.scenario)
     try:
         method = MethodConfig(method=args.method, decoding=args.decoding)
-        config = LoopConfig(
-            method=method,
-            max_rounds=args.rounds,
-            deadline=args.deadline,
-            run=RunConfig(planner=_planner_config(args), seed=args.seed),
-        )
+        settings = LoopSettings(method=method, max_rounds=args.rounds, deadline=args.deadline)
+        options = _options(args)
     except ValueError as e:
         raise CliError(str(e)) from None
-    path = _scenario_file(args.scenario)
-    scenario = load_scenario(path)
-    llm = _llm(args.llm, args.record)
-    status = escape(f"running {args.scenario} with {args.llm} ({args.method}) ...")
+    llm = None if args.no_llm else _llm(args.llm, args.record, name)
+    what = "no LLM" if llm is None else f"{args.llm} ({args.method})"
+    status = escape(f"running {args.scenario} in {world.title} with {what} ...")
     kept = f" (the rounds so far are in {args.out})" if args.out else ""
     try:
-        with console.status(status), _naming(path):
-            result = run_loop(scenario, llm, config, records)
+        with console.status(status), _naming(scenario):
+            if llm is None:
+                result = run_once(world, scenario, options, args.out)
+            else:
+                result = run(world, scenario, llm, settings, options, args.out)
     except LLMError as e:
         raise CliError(f"{e}{kept}", ExitCode.LLM) from None
     except KeyboardInterrupt:
         raise CliError(f"interrupted{kept}", ExitCode.INTERRUPTED) from None
-    for i, rnd in enumerate(result.rounds):
-        ep = rnd.episode
-        status = ep.status.value if ep else f"no plan ({rnd.plan.status.value})"
-        console.print(f"round {i}: goal {rnd.goal} -> {status}", highlight=False, markup=False)
-        if ep is not None and ep.anomaly is not None:
-            anomaly = f"  anomaly: {ep.anomaly.constraint} ({ep.anomaly.reason})"
-            console.print(anomaly, highlight=False, markup=False)
-        if rnd.proposal is not None:
-            p = rnd.proposal
-            console.print(
-                f"  {p.method}: {' '.join(map(str, p.goals)) or p.parse.status.value}"
-                f" ({p.repairs} repairs, {p.latency:.1f} s)",
-                highlight=False,
-                markup=False,
-            )
+    _print_rounds(result, console)
     if args.out:
-        from llmpas.system import save_loop
-
-        files = save_loop(result, Path(args.out))
-        console.print(f"wrote {len(files)} files to {args.out} (start with loop.md)")
-        _web_report(args, console, world="household")
+        console.print(f"wrote the run folder {args.out} (start with loop.md)")
+        _web_report(args, console, world=world.title, task=result.rounds[0].goal)
     verdict = "[bold green]task done[/]" if result.success else "[bold red]not done[/]"
     console.print(f"{verdict}: {escape(printable(result.message, keep_newlines=False))}")
     return 0 if result.success else 1
+
+
+def _print_rounds(result: Any, console: Console) -> None:
+    say = partial(console.print, highlight=False, markup=False)  # LLM text is not markup
+    for i, rnd in enumerate(result.rounds):
+        ep = rnd.episode
+        status = ep.status.value if ep else f"no plan ({rnd.plan.status.value})"
+        say(f"round {i}: goal {rnd.goal} -> {status}")
+        if ep is not None and ep.anomaly is not None:
+            say(f"  anomaly: {ep.anomaly.constraint} ({ep.anomaly.reason})")
+        if rnd.proposal is not None:
+            p = rnd.proposal
+            goals = " ".join(map(str, p.goals)) or p.parse.status.value
+            say(f"  {p.method}: {goals} ({p.repairs} repairs, {p.latency:.1f} s)")
 
 
 def _web_report(args: argparse.Namespace, console: Console, **about: Any) -> None:
@@ -656,22 +601,14 @@ def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("run", help="the closed loop: plan, execute, reason about anomalies")
     p.add_argument(
         "scenario",
-        help="a scenario: object-loss, action-blocking (PyBullet Husky + Panda), a household "
-        "scenario name, or a household .toml file",
+        help="a scenario: object-loss, action-blocking (PyBullet Husky + Panda), "
+        "tabletop-blocking (a fixed Panda), a household scenario name, or a household .toml",
     )
-    p.add_argument(
-        "--world",
-        choices=("household", "pybullet"),
-        help="default: pybullet for object-loss and action-blocking, else household",
-    )
-    p.add_argument("--gui", action="store_true", help="PyBullet: open the simulator window")
-    p.add_argument("--no-llm", action="store_true", help="PyBullet: plan and execute once")
+    _add_world_option(p)
+    p.add_argument("--gui", action="store_true", help="open the simulator window (PyBullet)")
+    p.add_argument("--no-llm", action="store_true", help="plan and execute once, no reasoning")
     add_llm_argument(p)
-    p.add_argument(
-        "--method",
-        default="flp",
-        choices=METHODS,
-    )
+    p.add_argument("--method", default="flp", choices=METHODS)
     p.add_argument("--decoding", default="grammar", choices=("grammar", "schema", "none"))
     p.add_argument("--rounds", type=positive_int, default=3, help="LLM consultations at most")
     p.add_argument(

@@ -1,13 +1,15 @@
-"""The closed loop of LLM-PAS: plan -> execute -> on an anomaly, reason -> validate -> replan from
-the believed state with the new goals (and the task goals when they can be planned together) ->
-resume, for a bounded number of rounds.
+"""The closed loop of LLM-PAS, once for every world: plan -> execute -> on an anomaly, reason ->
+validate -> replan from the believed state with the new goals (and the task goals when they can
+be planned together) -> resume, for a bounded number of rounds.
+
+A world supplies parts (:class:`llmpas.worlds.api.Session`): the problem for a goal from its
+belief, the decomposition of a plan into conditional subtrees, the robot and its perception, the
+prompt tables and a search model. This module is the only place that plans, executes and asks the
+LLM in a run (:func:`plan`, :func:`execute`, :func:`close_loop`, :func:`run`); it imports no world.
 
 The belief carries over between rounds (what the robot saw while recovering is what lets it
-finish the task); the world's truth is never read, except by the labelled oracle.
-
-One loop serves every world: a world session implements :class:`LoopWorld` (the household:
-:class:`~llmpas.worlds.household.loop_adapter.HouseholdLoopWorld`, run by :func:`run_loop`;
-PyBullet: :mod:`llmpas.worlds.pybullet.loop`) and :func:`close_loop` runs it.
+finish the task); the world's truth is read only by :meth:`Session.achieved` (a judge, after
+the loop) and by a labelled oracle.
 """
 
 from __future__ import annotations
@@ -21,31 +23,30 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from enum import Enum
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 from llmpas.execution.anomaly import AnomalyReport
-from llmpas.execution.context import Belief
+from llmpas.execution.context import Recorder
+from llmpas.execution.csubbt import SubtreeSpec
 from llmpas.execution.executor import Episode
+from llmpas.execution.executor import execute as execute_specs
 from llmpas.files import atomic_write
-from llmpas.language.domain import Domain
 from llmpas.language.logic import And, Atom, Formula, Not, atoms_of
-from llmpas.language.problem import parse_formula
+from llmpas.language.problem import Problem, parse_formula
 from llmpas.language.semantics import Semantics
-from llmpas.planning import PlanResult
-from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal, Vocabulary
+from llmpas.planning import PlanResult, solve
+from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal
 from llmpas.reasoning.llm import LLM, LLMError, Request, Response
-from llmpas.reasoning.methods import MethodConfig, Proposal, Situation, propose, rejected
+from llmpas.reasoning.methods import MethodConfig, Proposal, propose, rejected
+from llmpas.reasoning.prompts import situation
 from llmpas.safetext import fenced, printable
-from llmpas.worlds.household.loop_adapter import HouseholdLoopWorld
-from llmpas.worlds.household.reasoning import Oracle
-from llmpas.worlds.household.run import RunConfig, scenario_path
-from llmpas.worlds.household.scenario import Scenario, load_scenario
-from llmpas.worlds.household.sim import HouseholdWorld
+from llmpas.worlds.api import RunOptions, Session, World
 
 
 @dataclass(frozen=True)
 class LoopSettings:
-    """How the loop reasons, in every world (a world's ``LoopConfig`` adds how it runs)."""
+    """How the loop reasons, in every world (:class:`~llmpas.worlds.api.RunOptions`: how the
+    world runs)."""
 
     method: MethodConfig = field(default_factory=MethodConfig)
     max_rounds: int = 3  # LLM consultations at most
@@ -59,11 +60,6 @@ class LoopSettings:
 
 
 @dataclass(frozen=True)
-class LoopConfig(LoopSettings):
-    run: RunConfig = field(default_factory=RunConfig)
-
-
-@dataclass(frozen=True)
 class Round:
     """One plan-and-execute round, and the LLM's answer to its anomaly (if any)."""
 
@@ -71,12 +67,16 @@ class Round:
     plan: PlanResult
     episode: Episode | None
     proposal: Proposal | None = None
+    specs: tuple[SubtreeSpec, ...] = field(default=(), compare=False, repr=False)
 
     def to_json(self) -> dict[str, Any]:
+        ep = self.episode
         out: dict[str, Any] = {
             "goal": self.goal,
             "plan": self.plan.to_json(),
-            "episode": self.episode.to_json() if self.episode else None,
+            "status": ep.status.value if ep else "no-plan",
+            "anomaly": ep.anomaly.to_json() if ep and ep.anomaly else None,
+            "episode": ep.to_json() if ep else None,
         }
         if self.proposal is not None:
             p = self.proposal
@@ -85,6 +85,7 @@ class Round:
                 "status": p.parse.status.value,
                 "goals": [str(g) for g in p.goals],
                 "errors": list(p.parse.errors),
+                "notes": list(p.parse.notes),
                 "repairs": p.repairs,
                 "first_look": p.first_look,
                 "tokens": p.tokens,
@@ -120,7 +121,7 @@ class LoopStatus(Enum):
 @dataclass(frozen=True)
 class LoopResult:
     scenario: str
-    success: bool  # household: the robot believes the task done; PyBullet: judged in the truth
+    success: bool  # judged in the world's truth where it has a judge, else the robot's belief
     rounds: tuple[Round, ...]
     message: str = ""
     timings: Mapping[str, float] = field(default_factory=dict)  # seconds, where a world counts
@@ -144,6 +145,9 @@ class LoopResult:
             "message": self.message,
             "status": self.status.value if self.status else None,
             "error": self.error or None,
+            "llm_calls": self.llm_calls,
+            "llm_time": round(self.llm_time, 3),
+            "timings": {k: round(v, 3) for k, v in self.timings.items()},
             "rounds": [r.to_json() for r in self.rounds],
         }
 
@@ -151,63 +155,31 @@ class LoopResult:
         return atomic_write(path, json.dumps(self.to_json(), indent=2))
 
 
-class LoopWorld(Protocol):
-    """What the closed loop needs from one scenario's world session. Its belief carries over
-    between rounds; nothing here reads the world's truth."""
-
-    @property
-    def name(self) -> str: ...  # the scenario's name
-
-    @property
-    def task(self) -> str: ...  # the task goal, as PDDL text
-
-    @property
-    def domain(self) -> Domain: ...
-
-    @property
-    def belief(self) -> Belief: ...
-
-    @property
-    def vocabulary(self) -> Vocabulary: ...  # the goal predicates and their arguments
-
-    def plan(self, goal: Formula | str, index: int) -> tuple[PlanResult, Any]:
-        """Plan ``goal`` from the current belief, in round ``index``: (result, problem)."""
-        ...
-
-    def execute(self, plan: PlanResult, problem: Any) -> Episode | None:
-        """Execute a plan found by :meth:`plan` (None: there is none)."""
-        ...
-
-    def situation(self, report: AnomalyReport, history: str) -> Situation:
-        """The prompt's text for an anomaly, with what was tried before."""
-        ...
-
-    def search_places(self) -> tuple[str, ...]:
-        """Where the robot can look for an object: the arguments of ``(scanned P)``."""
-        ...
-
-    def looked_at(self, report: AnomalyReport) -> tuple[str, ...]:
-        """The search places a failed detection (a ``Detected`` anomaly) looked at."""
-        ...
-
-    def lost(self, obj: str) -> bool:
-        """Whether the robot does not know where ``obj`` is (and does not hold it)."""
-        ...
-
-
-LLMFor = Callable[[Callable[[], AnomalyReport | None]], LLM]  # an LLM built on the anomaly
 OnRound = Callable[["LoopResult"], object]  # gets the record so far after every step
-LLMFactory = Callable[[HouseholdWorld, Callable[[], AnomalyReport | None]], LLM]
+LLMFor = Callable[[Any], LLM]  # a backend built on the world's session (a labelled oracle)
 
 
-def oracle_factory(world: HouseholdWorld, report: Callable[[], AnomalyReport | None]) -> LLM:
-    """The **oracle** (upper bound only): answers from the world's true state."""
-    return Oracle(world, report)
+def plan(session: Session, goal: Formula | str, index: int) -> tuple[PlanResult, Problem]:
+    """Plan ``goal`` from the session's current belief (round ``index``)."""
+    problem = session.problem(goal, index)
+    return solve(problem, session.planner), problem
+
+
+def execute(
+    session: Session, result: PlanResult, problem: Problem
+) -> tuple[tuple[SubtreeSpec, ...], Episode | None]:
+    """Execute a plan found by :func:`plan` as the world's conditional subtrees (None: there is
+    no plan). Each episode gets its own timeline."""
+    if result.plan is None:
+        return (), None
+    specs = tuple(session.decompose(problem, result.plan))
+    session.context.recorder = Recorder()
+    return specs, execute_specs(specs, session.context, session.executor)
 
 
 @dataclass
 class _Loop:
-    world: LoopWorld
+    session: Session
     method: MethodConfig
     max_rounds: int
     rounds: list[Round] = field(default_factory=list)
@@ -219,13 +191,15 @@ class _Loop:
     deadline: float | None = None
     on_round: OnRound | None = None
     clock: Callable[[], float] = time.monotonic
+    timings: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        self.sem = Semantics(self.world.domain, {}, {}, strict_costs=False)
+        self.sem = Semantics(self.session.domain, {}, {}, strict_costs=False)
+        self.search = self.session.search
         self.start = self.clock()
 
     def run(self, backend: LLM) -> LoopResult:
-        task = self.world.task
+        task = self.session.task
         goal: Formula | str = task
         text = task
         for _ in range(2 * self.max_rounds + 1):  # the task, then per LLM round: goals + task
@@ -255,10 +229,10 @@ class _Loop:
                 self.remember(report)
             if self.expired():
                 return self.stop_at_deadline()
-            sit = self.world.situation(report, self.history())
+            sit = self.situation(report)
             t = time.perf_counter()
             proposal = propose(
-                sit, backend, self.world.vocabulary, self.method, self.check, self.exhausted()
+                sit, backend, self.session.vocabulary, self.method, self.check, self.exhausted()
             )
             self.llm_time += time.perf_counter() - t
             self.rounds[-1] = replace(rnd, proposal=proposal)
@@ -279,10 +253,11 @@ class _Loop:
     ) -> LoopResult:
         rounds = tuple(self.rounds)
         return LoopResult(
-            self.world.name,
+            self.session.name,
             success,
             rounds,
             message,
+            timings={**self.session.timings, **self.timings},
             llm_time=self.llm_time,
             status=status,
             error=error,
@@ -310,23 +285,48 @@ class _Loop:
         not planned again when it is then executed)."""
         key = (str(goal), len(self.rounds))
         if key not in self.plans:
-            self.plans[key] = self.world.plan(goal, len(self.rounds))
+            t = time.perf_counter()
+            self.plans[key] = plan(self.session, goal, len(self.rounds))
+            self.count("plan", time.perf_counter() - t)
         return self.plans[key]
+
+    def count(self, what: str, seconds: float) -> None:
+        self.timings[what] = self.timings.get(what, 0.0) + seconds
+
+    def look(self, place: str) -> Atom:
+        """The goal that searches ``place``."""
+        return Atom(self.search.predicate, (place,))
+
+    def situation(self, report: AnomalyReport) -> Any:
+        """The prompt's text for an anomaly, with what was tried before."""
+        s = self.session
+        return situation(
+            s.prompts,
+            report.describe(),
+            s.environment(),
+            s.task,
+            self.history(),
+            report.constraint,
+        )
 
     def attempt(self, goal: Formula | str, text: str) -> Round:
         result, problem = self.plan(goal)
-        return Round(text, result, self.world.execute(result, problem))
+        t = time.perf_counter()
+        specs, episode = execute(self.session, result, problem)
+        if episode is not None:
+            self.count("execute", time.perf_counter() - t)
+        return Round(text, result, episode, specs=specs)
 
     def task_holds(self) -> bool:
         """Whether the robot believes the task done."""
-        task = parse_formula(self.world.task, self.sem.domain)
-        return self.sem.holds(task, self.world.belief.facts)
+        task = parse_formula(self.session.task, self.sem.domain)
+        return self.sem.holds(task, self.session.context.belief.facts)
 
     def next_goal(self, proposal: Proposal) -> tuple[Formula, str]:
         """The new goals with the task goals they do not contradict, when that can be planned;
         else the new goals alone (the task is planned again once they are achieved)."""
         new = list(proposal.goals)
-        task = parse_formula(self.world.task, self.sem.domain)
+        task = parse_formula(self.session.task, self.sem.domain)
         negated = {g.arg for g in new if isinstance(g, Not)}
         keep = [a for a in atoms_of(task) if a not in negated and a not in new]
         both = And((*new, *keep))
@@ -345,7 +345,7 @@ class _Loop:
         errors = []
         bad = []
         for g in parse.goals:
-            if isinstance(g, Atom) and g.predicate == "scanned":
+            if isinstance(g, Atom) and g.predicate == self.search.predicate:
                 for obj, regions in self.searched.items():
                     if g.args[0] in regions:
                         bad.append(g)
@@ -372,9 +372,9 @@ class _Loop:
         spellings: ``(scanned P)`` and ``(on X P)``; left out of the LLM's decoding."""
         out: list[Literal] = []
         for obj, regions in self.searched.items():
-            if self.world.lost(obj):
+            if self.search.lost(obj):
                 for place in sorted(regions):
-                    out += [Atom("scanned", (place,)), Atom("on", (obj, place))]
+                    out += [self.look(place), Atom(self.search.location, (obj, place))]
         return tuple(out)
 
     def as_searches(self, parse: GoalParse) -> GoalParse:
@@ -395,14 +395,15 @@ class _Loop:
 
     def as_search(self, g: Literal) -> Literal:
         """``(scanned P)`` for ``(on X P)`` with X lost and P a place to search; else ``g``."""
-        lost = isinstance(g, Atom) and g.predicate == "on" and self.world.lost(g.args[0])
-        if lost and isinstance(g, Atom) and g.args[1] in self.world.search_places():
-            return Atom("scanned", (g.args[1],))
+        if not (isinstance(g, Atom) and g.predicate == self.search.location and len(g.args) == 2):
+            return g
+        if self.search.lost(g.args[0]) and g.args[1] in self.search.places():
+            return self.look(g.args[1])
         return g
 
     def drop_true(self, parse: GoalParse) -> GoalParse:
         """Goals the robot believes already hold are dropped (all of them: rejected)."""
-        true = [g for g in parse.goals if self.sem.holds(g, self.world.belief.facts)]
+        true = [g for g in parse.goals if self.sem.holds(g, self.session.context.belief.facts)]
         if not true:
             return parse
         if len(true) == len(parse.goals):
@@ -441,58 +442,58 @@ class _Loop:
         """The feedback for a goal no plan reaches, naming objects the robot has lost."""
         text = f"{goal}: no sequence of the robot's actions can achieve it from the current state"
         atom = goal.arg if isinstance(goal, Not) else goal
-        lost = [a for a in getattr(atom, "args", ()) if self.world.lost(a)]
+        lost = [a for a in getattr(atom, "args", ()) if self.search.lost(a)]
         if lost:
             text += (
                 f" ({', '.join(lost)}: location unknown; find it first with a goal "
-                "(scanned PLACE) for a place not searched yet)"
+                f"({self.search.predicate} PLACE) for a place not searched yet)"
             )
         return text
 
     def remember(self, report: AnomalyReport) -> None:
         """A failed detection: the places it looked at are searched for its object."""
-        if report.constraint_name == "Detected":
+        if report.constraint_name == self.search.detection:
             obj = report.constraint.args[0] if isinstance(report.constraint, Atom) else ""
-            self.searched.setdefault(str(obj), set()).update(self.world.looked_at(report))
+            self.searched.setdefault(str(obj), set()).update(self.search.looked_at(report))
 
     def searched_in(self, rnd: Round) -> None:
         """A search goal reached while an object is still lost: that place is searched."""
-        lost = [o for o in self.searched if self.world.lost(o)]
+        lost = [o for o in self.searched if self.search.lost(o)]
         for goal in atoms_of(parse_formula(rnd.goal, self.sem.domain)):
-            if goal.predicate == "scanned":
+            if goal.predicate == self.search.predicate:
                 for obj in lost:
                     self.searched[obj].add(goal.args[0])
 
     def not_searched(self, obj: str, regions: set[str]) -> str:
-        rest = [p for p in self.world.search_places() if p not in regions]
+        rest = [p for p in self.search.places() if p not in regions]
         return f" (not searched yet: {', '.join(rest)})" if rest else ""
 
     def history(self) -> str:
         lines = []
         for obj, regions in self.searched.items():
             lines.append(f"- {obj} was not found on {', '.join(sorted(regions))}")
-            rest = [p for p in self.world.search_places() if p not in regions]
+            rest = [p for p in self.search.places() if p not in regions]
             lines.append(f"- places not searched yet for {obj}: {', '.join(rest)}")
         lines += [f"- goals {' '.join(sorted(t))} did not help" for t in self.tried]
         return "\n".join(lines)
 
 
 def close_loop(
-    world: LoopWorld,
+    session: Session,
     llm: LLM | LLMFor,
     settings: LoopSettings,
     on_round: OnRound | None = None,
     clock: Callable[[], float] = time.monotonic,
 ) -> LoopResult:
-    """Run the closed loop on ``world``. ``llm`` is a backend, or a function of the current
-    anomaly that builds one (the oracle).
+    """Run the closed loop on an open ``session``. ``llm`` is a backend, or a function of the
+    session that builds one (a labelled oracle, which reads the world's truth).
 
     ``on_round`` gets the record after every plan-and-execute step and every LLM answer
     (status ``running``), and the final one; when an LLM error, a crash or an interrupt ends
     the loop it gets the rounds run so far with the error recorded, and the exception goes on.
     ``settings.deadline`` (seconds on ``clock``) stops the loop cleanly between steps."""
     loop = _Loop(
-        world,
+        session,
         settings.method,
         settings.max_rounds,
         deadline=settings.deadline,
@@ -500,7 +501,7 @@ def close_loop(
         clock=clock,
     )
     try:
-        backend = llm if isinstance(llm, LLM) else llm(lambda: loop.report)
+        backend = llm if isinstance(llm, LLM) else llm(session)
         if settings.deadline is not None:
             backend = _ByDeadline(backend, loop.remaining)
         result = loop.run(backend)
@@ -555,39 +556,92 @@ class _ByDeadline:
         return out[0]
 
 
-def run_loop(
-    scenario: Scenario | str | Path,
-    llm: LLM | LLMFactory,
-    config: LoopConfig | None = None,
+def run(
+    world: World,
+    scenario: Any,
+    llm: LLM | LLMFor,
+    settings: LoopSettings | None = None,
+    options: RunOptions | None = None,
+    out: str | Path | None = None,
     on_round: OnRound | None = None,
 ) -> LoopResult:
-    """Run a household scenario with LLM recovery. ``llm`` is a backend, or a factory that gets
-    the world and the current anomaly (how the oracle is built); ``on_round``: see
-    :func:`close_loop`."""
-    config = config or LoopConfig()
-    if not isinstance(scenario, Scenario):
-        scenario = load_scenario(scenario_path(str(scenario)))
-    world = HouseholdLoopWorld.open(scenario, config.run)
-    if isinstance(llm, LLM):
-        return close_loop(world, llm, config, on_round)
-    factory = llm
-    return close_loop(world, lambda report: factory(world.sim, report), config, on_round)
+    """Open ``scenario`` in ``world``, run the closed loop, judge the task in the world's truth
+    (where the world has a judge) and, with ``out``, write the run folder (``loop.json`` and
+    ``loop.md`` after every step, each round's episode and subtrees, the world's own files)."""
+    settings = settings or LoopSettings()
+    t0 = time.perf_counter()
+    with world.open(scenario, options or RunOptions()) as session:
+        hooks = [h for h in (on_round, _records_to(out)) if h is not None]
+        result = close_loop(session, llm, settings, _each(hooks) if hooks else None)
+        result = _judged(result, session, time.perf_counter() - t0)
+        if out is not None:
+            save_loop(result, out, session)
+    return result
+
+
+def run_once(
+    world: World,
+    scenario: Any,
+    options: RunOptions | None = None,
+    out: str | Path | None = None,
+) -> LoopResult:
+    """Plan the task once and execute it, with no LLM (one round), judged like :func:`run`;
+    ``out``: an episode folder (the episode's reports and subtrees, the world's own files)."""
+    t0 = time.perf_counter()
+    with world.open(scenario, options or RunOptions()) as session:
+        result = close_loop(session, _NoLLM(), LoopSettings(max_rounds=0))
+        result = _judged(result, session, time.perf_counter() - t0)
+        if out is not None:
+            save_once(result, out, session)
+    return result
+
+
+class _NoLLM:
+    """The backend of a run without reasoning: never asked (no LLM rounds are allowed)."""
+
+    name = "none"
+
+    def complete(self, request: Request) -> Response:
+        raise LLMError("no LLM in this run")
+
+
+def _records_to(out: str | Path | None) -> OnRound | None:
+    return None if out is None else (lambda result: save_records(result, out))
+
+
+def _each(hooks: list[OnRound]) -> OnRound:
+    def call(result: LoopResult) -> None:
+        for hook in hooks:
+            hook(result)
+
+    return call
+
+
+def _judged(result: LoopResult, session: Session, seconds: float) -> LoopResult:
+    """The loop's result with the world's verdict (when it has a judge) and its timings."""
+    timings = {**session.timings, **result.timings, "total": seconds}
+    ended = result.status not in (LoopStatus.DONE, LoopStatus.NOT_DONE)
+    judged = None if ended else session.achieved()
+    if judged is None:
+        return replace(result, timings=timings)
+    return replace(result, success=judged, timings=timings, status=None)
 
 
 __all__ = [
-    "LLMFactory",
     "LLMFor",
-    "LoopConfig",
     "LoopResult",
     "LoopSettings",
     "LoopStatus",
-    "LoopWorld",
+    "OnRound",
     "Round",
     "close_loop",
+    "execute",
     "loop_markdown",
-    "oracle_factory",
-    "run_loop",
+    "plan",
+    "run",
+    "run_once",
     "save_loop",
+    "save_once",
     "save_records",
 ]
 
@@ -647,19 +701,37 @@ def _proposal_lines(p: Proposal) -> list[str]:
     return lines
 
 
-def save_loop(result: LoopResult, folder: str | Path) -> list[Path]:
-    """``loop.json``, ``loop.md`` and, per round, the episode report and subtree XML."""
+def save_loop(result: LoopResult, folder: str | Path, session: Session | None = None) -> list[Path]:
+    """The run folder: the world's own files (snapshots, a GIF, its log), per executed round
+    ``round-I/`` with the episode report and the subtrees' XML, ``loop.json`` and ``loop.md``."""
     from llmpas.execution.report import save_episode
 
     out = Path(folder)
-    files = save_records(result, out)
+    out.mkdir(parents=True, exist_ok=True)
+    files = session.save(out) if session is not None else []
     for i, rnd in enumerate(result.rounds):
         if rnd.episode is not None:
-            files += save_episode(rnd.episode, out / f"round{i}", title=f"Round {i}: {rnd.goal}")
+            title = f"{result.scenario}, round {i}: {rnd.goal}"
+            files += save_episode(rnd.episode, out / f"round-{i}", list(rnd.specs), title)
+    return files + save_records(result, out)
+
+
+def save_once(result: LoopResult, folder: str | Path, session: Session | None = None) -> list[Path]:
+    """The folder of a run without reasoning: the world's own files and the one round's
+    episode reports and subtrees at the top."""
+    from llmpas.execution.report import save_episode
+
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    files = session.save(out) if session is not None else []
+    rnd = result.rounds[0] if result.rounds else None
+    if rnd is not None and rnd.episode is not None:
+        files += save_episode(rnd.episode, out, list(rnd.specs), f"{result.scenario}: {rnd.goal}")
     return files
 
 
 def save_records(result: LoopResult, folder: str | Path) -> list[Path]:
-    """``loop.json`` and ``loop.md`` (atomically): what the loop calls after every round."""
+    """``loop.json`` and ``loop.md`` (atomically): written after every step while the loop
+    runs, so a crash or an interrupt keeps what happened."""
     out = Path(folder)
     return [result.save(out / "loop.json"), atomic_write(out / "loop.md", loop_markdown(result))]

@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 from llmpas.cli import main
+from llmpas.experiments.oracles.household import oracle as oracle_factory
 from llmpas.experiments.suite import (
     EXPECTED_COUNTS,
     SUITE_DIR,
@@ -25,8 +26,8 @@ from llmpas.experiments.suite import (
     task_from_dict,
     validate_folder,
 )
+from llmpas.experiments.worlds import LoopConfig
 from llmpas.reasoning.llm import Request, Response
-from llmpas.system import LoopConfig, oracle_factory
 
 ALL = [p.stem for p in sorted(SUITE_DIR.glob("*.toml"))]
 REPRESENTATIVE = ("ol02-table1", "ol06-drawer4", "ab04-microwave-cube", "sc02-apple-stove")

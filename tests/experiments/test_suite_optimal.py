@@ -15,21 +15,22 @@ it is never allowed to come out shorter.
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any
 
-import numpy as np
 import py_trees
 import pytest
 
+from llmpas.experiments.oracles.household import oracle
 from llmpas.experiments.suite import SUITE_DIR, load_task, resolution_length
 from llmpas.language.logic import Formula
-from llmpas.planning import PlanResult, solve
+from llmpas.language.problem import Problem
+from llmpas.planning import PlannerConfig
 from llmpas.planning.config import Algorithm
-from llmpas.planning.downward import DownwardConfig, FastDownward
-from llmpas.system import LoopConfig, close_loop, oracle_factory
-from llmpas.worlds.household.loop_adapter import HouseholdLoopWorld
-from llmpas.worlds.household.problem import make_problem
+from llmpas.system import LoopSettings, close_loop
+from llmpas.worlds.api import RunOptions
+from llmpas.worlds.household.decomposition import ExplorationConfig
+from llmpas.worlds.household.plugin import HouseholdSession
 
 # unit costs: the number of actions, not the drive distances the default search weighs
 OPTIMAL = "astar(hmax(axioms=approximate_negative), cost_type=one)"
@@ -43,30 +44,33 @@ def clean_blackboard() -> Iterator[None]:
     py_trees.blackboard.Blackboard.clear()
 
 
-@dataclass(frozen=True)
-class OptimalWorld(HouseholdLoopWorld):
-    """The household world, planned with an optimal classical search after the first round
+class OptimalSession:
+    """The household session, planned with an optimal classical search after the first round
     (the first round, which runs into the anomaly, is planned as in the oracle's run, so that
     both resolutions start from the same anomaly state)."""
 
-    algorithm: Algorithm = "focused"
+    def __init__(self, inner: HouseholdSession, algorithm: Algorithm) -> None:
+        self.inner = inner
+        self.optimal = replace(inner.planner, algorithm=algorithm, search=OPTIMAL)
+        self.index = 0
 
-    def plan(self, goal: Formula | str, index: int) -> tuple[PlanResult, Any]:
-        if index == 0:
-            return super().plan(goal, index)
-        rng = np.random.default_rng([self.seed, index, 1])
-        problem = make_problem(self.house, self.belief, goal, rng)
-        limits = replace(self.config.planner, algorithm=self.algorithm)
-        search = DownwardConfig(OPTIMAL, max_time=limits.search_time, memory_mb=limits.memory_mb)
-        return solve(problem, limits, classical=FastDownward(search)), problem
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.inner, name)
+
+    @property
+    def planner(self) -> PlannerConfig:
+        return self.inner.planner if self.index == 0 else self.optimal
+
+    def problem(self, goal: Formula | str, index: int) -> Problem:
+        self.index = index
+        return self.inner.problem(goal, index)
 
 
 def optimal_resolution(name: str, algorithm: Algorithm) -> int:
     task = load_task(SUITE_DIR / f"{name}.toml")
-    config = LoopConfig()
-    plain = OptimalWorld.open(task.scenario, config.run)
-    world = replace(plain, algorithm=algorithm)
-    result = close_loop(world, lambda report: oracle_factory(world.sim, report), config)
+    inner = HouseholdSession.open(task.scenario, RunOptions(), ExplorationConfig())
+    session = OptimalSession(inner, algorithm)
+    result = close_loop(session, oracle(inner), LoopSettings())  # type: ignore[arg-type]
     assert result.success, result.message
     first = result.rounds[0].episode
     assert first is not None and first.anomaly is not None  # round 0 ran into the anomaly

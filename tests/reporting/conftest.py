@@ -41,8 +41,8 @@ def main_job(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="session")
 def hostile_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A household closed loop whose LLM is :class:`HostileLLM`, saved and reported."""
+    from llmpas.experiments.worlds import run_loop
     from llmpas.reporting import build_report
-    from llmpas.system import run_loop
 
     out = tmp_path_factory.mktemp("hostile") / "run"
     result = run_loop("object-loss-table", HostileLLM())

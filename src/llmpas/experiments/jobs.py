@@ -86,12 +86,9 @@ def llm_resources(spec: str) -> dict[str, float]:
 def backend(spec: str, record: str | None = None) -> Any:
     """The LLM backend for a ``--llm`` spec, built once per process (a worker loads a local model
     once, not per job). ValueError for a bad spec."""
-    from llmpas.cli import CliError, _llm
+    from llmpas.reasoning.backends.registry import make_backend
 
-    try:
-        return _llm(spec, record)
-    except CliError as err:
-        raise ValueError(str(err)) from None
+    return make_backend(spec, record)
 
 
 def add_llm_argument(p: argparse.ArgumentParser, oracle: str = "oracle") -> None:

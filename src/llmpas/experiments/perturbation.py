@@ -22,8 +22,10 @@ from rich.console import Console
 from llmpas.experiments.jobs import ExecutorSpec, Job, fingerprint, not_cacheable, run_jobs
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning import PlannerConfig
+from llmpas.system import run_once
+from llmpas.worlds.api import RunOptions
 from llmpas.worlds.household.decomposition import ExplorationConfig
-from llmpas.worlds.household.run import RunConfig, run_scenario
+from llmpas.worlds.household.plugin import HouseholdPlugin
 from llmpas.worlds.household.scenario import Scenario
 
 MODES = ("csubbt", "flat")
@@ -149,20 +151,20 @@ def make_episode(k: int, seed: int) -> tuple[Scenario, str]:
     return Scenario.from_dict(data, source=f"perturbation[{k}]"), shown
 
 
-def run_config(mode: str, config: PerturbationConfig) -> RunConfig:
-    return RunConfig(
-        planner=PlannerConfig(max_time=config.max_time),
-        exploration=ExplorationConfig() if mode == "csubbt" else FLAT,
-    )
+def run_config(mode: str, config: PerturbationConfig) -> tuple[HouseholdPlugin, RunOptions]:
+    """The household world of a mode (how its subtrees explore) and how it runs."""
+    world = HouseholdPlugin(exploration=ExplorationConfig() if mode == "csubbt" else FLAT)
+    return world, RunOptions(planner=PlannerConfig(max_time=config.max_time))
 
 
 def run_episode(k: int, mode: str, config: PerturbationConfig) -> Outcome:
     scenario, shown = make_episode(k, config.seed)
     py_trees.blackboard.Blackboard.clear()
-    r = run_scenario(scenario, run_config(mode, config))
-    ep = r.episode
-    status = ep.status.value if ep is not None else f"plan-{r.plan.status.value}"
-    total = r.plan.stats.total_time + (ep.events[-1].t if ep and ep.events else 0.0)
+    world, options = run_config(mode, config)
+    rnd = run_once(world, scenario, options).rounds[0]
+    ep = rnd.episode
+    status = ep.status.value if ep is not None else f"plan-{rnd.plan.status.value}"
+    total = rnd.plan.stats.total_time + (ep.events[-1].t if ep and ep.events else 0.0)
     return Outcome(
         k, mode, shown, status, ep.retries if ep else 0, ep.ticks if ep else 0, round(total, 3)
     )
@@ -186,7 +188,8 @@ def jobs_for(config: PerturbationConfig) -> list[Job[Payload]]:
     for k in range(config.episodes):
         data, shown = episode_data(k, config.seed)
         for mode in MODES:
-            settings = asdict(run_config(mode, config))
+            world, options = run_config(mode, config)
+            settings = {"world": asdict(world), "options": asdict(options)}
             digest = fingerprint([config.seed, k, data, shown, mode, settings])
             out.append(
                 Job(f"{mode}/seed{config.seed}/episode{k}/{digest}", Payload(k, mode, config))

@@ -59,12 +59,13 @@ from llmpas.experiments.suite import (
     load_task,
     parse_task,
 )
+from llmpas.experiments.worlds import LoopConfig, oracle_for
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning import PlannerConfig
 from llmpas.reasoning.llm import LLM
 from llmpas.reasoning.methods import DECODINGS, METHODS, MethodConfig
-from llmpas.system import LLMFactory, LoopConfig, LoopResult, oracle_factory
-from llmpas.worlds.household.run import RunConfig
+from llmpas.system import LLMFor, LoopResult
+from llmpas.worlds.api import RunOptions
 
 log = logging.getLogger(__name__)
 
@@ -149,11 +150,11 @@ class Payload:
 # ------------------------------------------------------------------------------- backends
 
 
-def build_llm(spec: str, record: str | None = None) -> LLM | LLMFactory:
+def build_llm(spec: str, record: str | None = None) -> LLM | LLMFor:
     """The backend for ``spec`` (``oracle``: the oracle factory), built once per process (a local
     model is loaded once, not per job). ValueError for a bad spec."""
     if spec == ORACLE:
-        return oracle_factory
+        return oracle_for("household")
     llm: LLM = backend(spec, record)
     return llm
 
@@ -171,7 +172,7 @@ def loop_config(config: PromptingConfig, method: str, sample: int) -> LoopConfig
             max_tokens=config.max_tokens,
         ),
         max_rounds=config.max_rounds,
-        run=RunConfig(planner=PlannerConfig(max_time=config.max_time)),
+        options=RunOptions(planner=PlannerConfig(max_time=config.max_time)),
     )
 
 
@@ -570,7 +571,7 @@ def validate_command(args: argparse.Namespace, console: Console) -> int:
     if args.seeds < 0 or args.jobs < 1:
         raise UsageError("--seeds must be >= 0 and --jobs >= 1")
     folder = Path(args.folder)
-    config = LoopConfig(run=RunConfig(planner=PlannerConfig(max_time=args.max_time)))
+    config = LoopConfig(options=RunOptions(planner=PlannerConfig(max_time=args.max_time)))
     try:
         files = len(task_files(folder))
     except SuiteError:

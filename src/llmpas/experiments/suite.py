@@ -26,7 +26,7 @@ the simulator's true state; it is an upper bound, never a default) — the short
 each ``PYTHONHASHSEED`` of :data:`HASH_SEEDS` (the planner's tie-breaking depends on string
 hashing). ``validate-data`` recomputes it and reports a mismatch.
 
-**Judging** a run (:func:`judge`): the closed loop (:func:`llmpas.system.run_loop`) runs the task
+**Judging** a run (:func:`judge`): the closed loop (:func:`llmpas.system.run`) runs the task
 with the given LLM and prompting method; the sample succeeds when every goal the LLM proposed
 was parsed and validated (the loop rejects the others, with repairs), the planner found plans
 from the anomaly state, the loop ended reporting the task done within its budget of LLM rounds,
@@ -46,6 +46,8 @@ from typing import Any, cast
 
 from llmpas.errors import InputError
 from llmpas.execution.anomaly import AnomalyReport
+from llmpas.experiments.oracles.household import oracle as household_oracle
+from llmpas.experiments.worlds import LoopConfig
 from llmpas.inputs import TOML_LIMIT, decode_text, parse_toml, read_bytes
 from llmpas.language.errors import PddlSyntaxError
 from llmpas.language.logic import Atom, Not
@@ -53,10 +55,10 @@ from llmpas.language.sexpr import SExpr, SList, Sym, parse_all
 from llmpas.reasoning.goals import GoalParse, GoalStatus, parse_goals
 from llmpas.reasoning.llm import LLM
 from llmpas.reasoning.program import parse_program
-from llmpas.system import LLMFactory, LoopConfig, LoopResult, oracle_factory, run_loop
+from llmpas.system import LLMFor, LoopResult, run
 from llmpas.worlds.household.layout import kitchen
+from llmpas.worlds.household.plugin import WORLD, HouseholdSession, household_for
 from llmpas.worlds.household.reasoning import PROGRAM_CALLS, vocabulary
-from llmpas.worlds.household.run import household_for
 from llmpas.worlds.household.scenario import Scenario, ScenarioError
 from llmpas.worlds.household.sim import HouseholdWorld
 from llmpas.worlds.household.state import TrueState
@@ -374,16 +376,16 @@ class Traced:
     world: HouseholdWorld
 
 
-def run_traced(task: SuiteTask, llm: LLM | LLMFactory, config: LoopConfig) -> Traced:
-    """Run the closed loop on ``task`` and keep the world (the factory hook of
-    :func:`run_loop` hands it over; the LLM never sees it unless it is the oracle)."""
+def run_traced(task: SuiteTask, llm: LLM | LLMFor, config: LoopConfig) -> Traced:
+    """Run the closed loop on ``task`` and keep the simulator (handed over when the backend is
+    built; the LLM never sees it unless it is the oracle)."""
     worlds: list[HouseholdWorld] = []
 
-    def factory(world: HouseholdWorld, report: Callable[[], AnomalyReport | None]) -> LLM:
-        worlds.append(world)
-        return llm if isinstance(llm, LLM) else llm(world, report)
+    def factory(session: HouseholdSession) -> LLM:
+        worlds.append(session.sim)
+        return llm if isinstance(llm, LLM) else llm(session)
 
-    result = run_loop(task.scenario, factory, config)
+    result = run(WORLD, task.scenario, factory, config, config.options)
     return Traced(result, worlds[0])
 
 
@@ -422,7 +424,7 @@ def _answer_reader(task: SuiteTask, config: LoopConfig) -> Callable[[str], GoalP
 
 def judge(
     task: SuiteTask,
-    llm: LLM | LLMFactory,
+    llm: LLM | LLMFor,
     config: LoopConfig,
     keep: Callable[[LoopResult], object] | None = None,
 ) -> Judgement:
@@ -523,7 +525,7 @@ def oracle_run(task: SuiteTask, config: LoopConfig | None = None) -> OracleRun:
     config = config or LoopConfig()
     src = task.source
     seed = os.environ.get("PYTHONHASHSEED", "")
-    traced = run_traced(task, oracle_factory, config)
+    traced = run_traced(task, household_oracle, config)
     result, world = traced.result, traced.world
     first_round = result.rounds[0] if result.rounds else None
     if first_round is None or first_round.plan.plan is None:

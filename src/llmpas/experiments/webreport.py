@@ -26,11 +26,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def _main_job(folder: Path, console: Console) -> Path:
     """``llmpas run object-loss --llm oracle --out FOLDER/object-loss``, without its page."""
-    from llmpas.worlds.pybullet.loop import oracle_factory, run_loop
+    from llmpas.experiments.worlds import ORACLE, run_loop
 
     out = folder / "object-loss"
     with console.status("running the main job (object-loss, oracle) ..."):
-        run_loop("object-loss", oracle_factory, out=out)
+        run_loop("object-loss", ORACLE, out=out)
     return out
 
 

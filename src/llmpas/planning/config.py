@@ -32,6 +32,7 @@ class PlannerConfig:
     memory_mb: int = 4096
     seed: int = 0
     share_placeholders: bool = False
+    search: str | None = None  # a Fast Downward search string (None: lazy greedy with FF)
 
     def __post_init__(self) -> None:
         if self.algorithm not in ("focused", "incremental"):

@@ -120,8 +120,9 @@ def solve(
     config = config or PlannerConfig()
     started = time.perf_counter()
     if classical is None:
+        search = {} if config.search is None else {"search": config.search}
         classical = FastDownward(
-            DownwardConfig(max_time=config.search_time, memory_mb=config.memory_mb)
+            DownwardConfig(max_time=config.search_time, memory_mb=config.memory_mb, **search)
         )
     negative = negative_test_predicates(problem)
     assumed = frozenset(

@@ -26,7 +26,7 @@ from collections.abc import Mapping, Sequence
 from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 from llmpas.execution.anomaly import AnomalyReport
 from llmpas.execution.context import Belief, Context
@@ -64,9 +64,14 @@ class SearchModel(Protocol):
     rests (``on``, object first, place second); ``detection``: the constraint name of a failed
     detection (``Detected``)."""
 
-    predicate: str
-    location: str
-    detection: str
+    @property
+    def predicate(self) -> str: ...
+
+    @property
+    def location(self) -> str: ...
+
+    @property
+    def detection(self) -> str: ...
 
     def places(self) -> tuple[str, ...]:
         """Where the robot can look for an object: the arguments of ``(predicate P)``."""
@@ -151,8 +156,9 @@ class World(Protocol):
         """Shipped scenario names and one line each."""
         ...
 
-    def open(self, scenario: str, options: RunOptions) -> AbstractContextManager[Session]:
-        """A session on ``scenario`` (a shipped name, or a file the world reads); closed on
+    def open(self, scenario: Any, options: RunOptions) -> AbstractContextManager[Session]:
+        """A session on ``scenario`` (a shipped name, a file the world reads, or the world's own
+        scenario value); closed on
         exit (a physics client disconnected, say). Unknown names: ``KeyError`` naming the known
         ones; a bad file: an :class:`~llmpas.errors.InputError` naming it."""
         ...

@@ -4,13 +4,19 @@ report per unrecoverable anomaly type, naming the right constraint and what was 
 from __future__ import annotations
 
 from collections.abc import Iterator
+from dataclasses import dataclass
 
 import py_trees
 import pytest
 
-from llmpas.execution.executor import ExecStatus
+from llmpas.execution.csubbt import SubtreeSpec
+from llmpas.execution.executor import Episode, ExecStatus
 from llmpas.language.logic import Atom, Not
-from llmpas.worlds.household.run import HouseholdRun, run_scenario
+from llmpas.planning import PlanResult
+from llmpas.system import execute, plan
+from llmpas.worlds.api import RunOptions
+from llmpas.worlds.household.plugin import WORLD
+from llmpas.worlds.household.sim import HouseholdWorld
 
 
 @pytest.fixture(autouse=True)
@@ -20,11 +26,22 @@ def clean_blackboard() -> Iterator[None]:
     py_trees.blackboard.Blackboard.clear()
 
 
-def run(name: str) -> HouseholdRun:
-    r = run_scenario(name)
-    assert r.plan.solved, r.plan.message
-    assert r.episode is not None
-    return r
+@dataclass(frozen=True)
+class Run:
+    plan: PlanResult
+    specs: tuple[SubtreeSpec, ...]
+    episode: Episode
+    world: HouseholdWorld  # the simulator, to check the truth
+
+
+def run(name: str) -> Run:
+    """Plan a household scenario once and execute it (the system's functions on its session)."""
+    with WORLD.open(name, RunOptions()) as session:
+        result, problem = plan(session, session.task, 0)
+        assert result.solved, result.message
+        specs, episode = execute(session, result, problem)
+    assert episode is not None
+    return Run(result, specs, episode, session.sim)
 
 
 def test_nominal_scenario_succeeds_and_the_truth_agrees() -> None:

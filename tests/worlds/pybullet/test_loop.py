@@ -14,19 +14,20 @@ import pytest
 pytest.importorskip("pybullet")
 pytest.importorskip("ompl")
 
+from llmpas.cli import main
+from llmpas.experiments.worlds import ORACLE, LoopConfig, run_loop
 from llmpas.language.logic import Atom
 from llmpas.reasoning.llm import Request, Response
 from llmpas.reasoning.methods import MethodConfig
-from llmpas.worlds.pybullet.cli import main
-from llmpas.worlds.pybullet.loop import LoopConfig, oracle_factory, run_loop
-from llmpas.worlds.pybullet.run import RunConfig, scenarios
+from llmpas.worlds.api import RunOptions
+from llmpas.worlds.pybullet.run import scenarios
 from llmpas.worlds.pybullet.scene import SceneConfig, TableConfig
 
-QUIET = RunConfig(snapshots=False)
+QUIET = RunOptions(snapshots=False)
 
 
 def test_object_loss_recovers_with_the_oracle() -> None:
-    result = run_loop("object-loss", oracle_factory, LoopConfig(run=RunConfig(snapshots=False)))
+    result = run_loop("object-loss", ORACLE, LoopConfig(options=QUIET))
     assert result.success, result.message
     assert [str(g) for r in result.rounds if r.proposal for g in r.proposal.goals] == [
         "(scanned table2)"
@@ -40,7 +41,7 @@ def test_object_loss_recovers_with_the_oracle() -> None:
 
 @pytest.mark.slow
 def test_object_loss_with_the_oracle_writes_the_episode_folder(tmp_path: Path) -> None:
-    result = run_loop("object-loss", oracle_factory, out=tmp_path)
+    result = run_loop("object-loss", ORACLE, out=tmp_path)
     assert result.success, result.message
     first = result.rounds[0]
     assert first.episode is not None and first.episode.anomaly is not None
@@ -55,12 +56,11 @@ def test_object_loss_with_the_oracle_writes_the_episode_folder(tmp_path: Path) -
         assert (tmp_path / f"round-{i}" / "report.md").is_file()
         assert (tmp_path / f"round-{i}" / "plan.xml").is_file()
     assert any((tmp_path / "snapshots").glob("*event*.png"))  # the moment the cube was moved
-    assert result.timings["total"] < 120.0
 
 
 @pytest.mark.slow
 def test_action_blocking_recovers_with_the_oracle() -> None:
-    result = run_loop("action-blocking", oracle_factory, LoopConfig(run=RunConfig(snapshots=False)))
+    result = run_loop("action-blocking", ORACLE, LoopConfig(options=QUIET))
     assert result.success, result.message
     first = result.rounds[0]
     assert first.proposal is not None
@@ -77,18 +77,16 @@ class Silent:
 
 
 def test_without_usable_goals_the_loop_stops_and_the_task_is_not_done() -> None:
-    result = run_loop(
-        "object-loss", Silent(), LoopConfig(max_rounds=1, run=RunConfig(snapshots=False))
-    )
+    result = run_loop("object-loss", Silent(), LoopConfig(max_rounds=1, options=QUIET))
     assert not result.success
     assert len(result.rounds) == 1
 
 
 def test_cli_runs_nominal_without_llm(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    code = main(["nominal", "--no-llm", "--out", str(tmp_path)])
+    code = main(["run", "nominal", "--world", "pybullet", "--no-llm", "--out", str(tmp_path)])
     assert code == 0
-    assert "goal achieved: True" in capsys.readouterr().out
-    assert (tmp_path / "report.md").is_file()
+    assert "task done" in capsys.readouterr().out  # judged in the simulator's true state
+    assert (tmp_path / "report.md").is_file() and (tmp_path / "episode.gif").is_file()
 
 
 class Sequence:
@@ -108,7 +106,7 @@ class Sequence:
 
 def test_a_lost_cubes_new_table_as_an_on_goal_is_read_as_a_search() -> None:
     llm = Sequence("Goals: (and (on cube table2))")
-    result = run_loop("object-loss", llm, LoopConfig(run=QUIET))
+    result = run_loop("object-loss", llm, LoopConfig(options=QUIET))
     assert result.success, result.message
     proposal = next(r.proposal for r in result.rounds if r.proposal)
     assert [str(g) for g in proposal.goals] == ["(scanned table2)"]
@@ -117,7 +115,7 @@ def test_a_lost_cubes_new_table_as_an_on_goal_is_read_as_a_search() -> None:
 
 def test_searching_the_table_the_cube_was_not_found_on_is_sent_back() -> None:
     llm = Sequence("Goals: (and (scanned table1))", "Goals: (and (scanned table2))")
-    result = run_loop("object-loss", llm, LoopConfig(MethodConfig("one-step"), run=QUIET))
+    result = run_loop("object-loss", llm, LoopConfig(MethodConfig("one-step"), options=QUIET))
     assert result.success, result.message
     proposal = next(r.proposal for r in result.rounds if r.proposal)
     assert [str(g) for g in proposal.goals] == ["(scanned table2)"] and proposal.repairs == 1
@@ -134,7 +132,8 @@ def three_tables() -> SceneConfig:
 def test_a_search_of_the_wrong_table_goes_back_to_the_llm_with_the_places_left() -> None:
     scenario = replace(scenarios()["object-loss"], name="object-loss-3", scene=three_tables())
     llm = Sequence("Goals: (and (scanned table3))", "Goals: (and (scanned table2))")
-    result = run_loop(scenario, llm, LoopConfig(MethodConfig("one-step"), run=QUIET))
+    config = LoopConfig(MethodConfig("one-step"), options=QUIET)
+    result = run_loop(scenario, llm, config, world="pybullet")
     assert result.success, result.message
     assert [str(g) for r in result.rounds if r.proposal for g in r.proposal.goals] == [
         "(scanned table3)",
@@ -159,7 +158,7 @@ def _replayed(scenario: str, seed: int) -> bool:
     from llmpas.reasoning.backends.replay import ReplayBackend
 
     llm = ReplayBackend(CASSETTES, mode="replay")  # the offline model, recorded once
-    config = LoopConfig(run=replace(QUIET, seed=seed))
+    config = LoopConfig(options=replace(QUIET, seed=seed))
     result = run_loop(scenario, llm, config)
     proposals = [r.proposal for r in result.rounds if r.proposal]
     assert proposals and all(p.first_look for p in proposals)

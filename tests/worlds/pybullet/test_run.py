@@ -14,9 +14,12 @@ pytest.importorskip("ompl")
 
 from llmpas.execution.executor import ExecStatus
 from llmpas.language.logic import Atom, Not
+from llmpas.system import LoopResult, run_once
+from llmpas.worlds.api import RunOptions
 from llmpas.worlds.pybullet.motion import BaseChecker
+from llmpas.worlds.pybullet.plugin import WORLD
 from llmpas.worlds.pybullet.problem import static_facts
-from llmpas.worlds.pybullet.run import RunConfig, Scenario, run_scenario, scenarios
+from llmpas.worlds.pybullet.run import Scenario, scenarios
 from llmpas.worlds.pybullet.scene import TABLE_TOP, SceneConfig, open_scene
 from llmpas.worlds.pybullet.snapshot import is_blank
 from llmpas.worlds.pybullet.streams import Geometry, make_streams
@@ -24,15 +27,27 @@ from llmpas.worlds.pybullet.values import BaseConf, BasePath, Grasp, ObjectPose
 from llmpas.worlds.pybullet.world import PyBulletWorld
 
 
+class Once:
+    """One plan executed without reasoning (:func:`llmpas.system.run_once`), judged in the truth."""
+
+    def __init__(self, result: LoopResult) -> None:
+        self.plan = result.rounds[0].plan
+        self.episode = result.rounds[0].episode
+        self.achieved = result.success
+
+
+def once(name: str, options: RunOptions | None = None, out: Path | None = None) -> Once:
+    return Once(run_once(WORLD, name, options or RunOptions(snapshots=False), out))
+
+
 def test_nominal_completes_end_to_end_and_writes_an_episode_folder(tmp_path: Path) -> None:
     from PIL import Image as PILImage
 
-    run = run_scenario("nominal", out=tmp_path)
+    run = once("nominal", RunOptions(), out=tmp_path)
     assert run.plan.plan is not None
     assert [s.action for s in run.plan.plan.steps] == ["move_base", "pick", "move_base", "place"]
     assert run.episode is not None and run.episode.status is ExecStatus.SUCCESS
     assert run.achieved  # judged in the true state: the cube rests in the bowl
-    assert run.succeeded
     for name in ("episode.json", "report.md", "report.html", "plan.xml", "run.json"):
         assert (tmp_path / name).is_file(), name
     shots = sorted((tmp_path / "snapshots").glob("*.png"))
@@ -46,7 +61,7 @@ def test_nominal_completes_end_to_end_and_writes_an_episode_folder(tmp_path: Pat
 
 
 def test_object_loss_ends_in_an_anomaly_naming_the_lost_cube() -> None:
-    run = run_scenario("object-loss", RunConfig(snapshots=False))
+    run = once("object-loss")
     assert run.episode is not None and run.episode.status is ExecStatus.ANOMALY
     report = run.episode.anomaly
     assert report is not None
@@ -60,7 +75,7 @@ def test_object_loss_ends_in_an_anomaly_naming_the_lost_cube() -> None:
 
 
 def test_action_blocking_ends_in_an_anomaly_naming_the_full_bowl() -> None:
-    run = run_scenario("action-blocking", RunConfig(snapshots=False))
+    run = once("action-blocking")
     assert run.episode is not None and run.episode.status is ExecStatus.ANOMALY
     report = run.episode.anomaly
     assert report is not None
@@ -80,7 +95,7 @@ def test_scenarios_are_valid_and_named() -> None:
     with pytest.raises(ValueError):
         Scenario("bad", "", SceneConfig(), "(and (On cube bowl))", unknown=("ghost",))
     with pytest.raises(KeyError):
-        run_scenario("no-such-scenario")
+        once("no-such-scenario")
 
 
 # --------------------------------------------------------------------------- streams

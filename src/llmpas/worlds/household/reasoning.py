@@ -1,23 +1,18 @@
-"""What the reasoner is told about the household, and the oracle that knows its true state.
-
-Everything in a prompt comes from the robot's belief and the domain; only :class:`Oracle` reads the
-simulator's truth, and it is used only as an upper bound (never as a default).
+"""What the reasoner is told about the household: its prompt tables (as data), the goal
+vocabulary and the believed environment. Everything here comes from the robot's belief and the
+domain, never from the simulator's truth (the labelled oracle lives in
+:mod:`llmpas.experiments.oracles.household`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from types import MappingProxyType
 
-from llmpas.execution.anomaly import AnomalyReport
 from llmpas.execution.context import Belief
-from llmpas.language.logic import Atom, Not
 from llmpas.reasoning.goals import Vocabulary
-from llmpas.reasoning.llm import Request, Response
-from llmpas.reasoning.methods import Situation
 from llmpas.reasoning.program import Call
+from llmpas.reasoning.prompts import PromptTables
 from llmpas.worlds.household.problem import Household, believed_place
-from llmpas.worlds.household.sim import HouseholdWorld
 
 ACTIONS = {
     "pick": ("pick up an object from where it rests (the hand must be empty)", ("holding",)),
@@ -90,16 +85,8 @@ def vocabulary(house: Household) -> Vocabulary:
     )
 
 
-def action_library() -> str:
-    lines = []
-    for name, (text, makes) in ACTIONS.items():
-        made = f" — makes true: {', '.join(makes)}" if makes else ""
-        lines.append(f"- {name}: {text}{made}")
-    return "\n".join(lines)
-
-
-def predicate_list() -> str:
-    return "\n".join(f"- ({n} {args}): {text}" for n, (args, text) in PREDICATES.items())
+def prompt_tables(house: Household) -> PromptTables:
+    return PromptTables(ACTIONS, PREDICATES, PROGRAM_CALLS, tuple(sorted(house.objects)))
 
 
 def environment(house: Household, belief: Belief) -> str:
@@ -135,70 +122,3 @@ def environment(house: Household, belief: Belief) -> str:
 
 def _mentioned(belief: Belief, obj: str) -> bool:
     return any(obj in a.args for a in belief.facts if a.predicate != "object")
-
-
-def situation(
-    house: Household, belief: Belief, report: AnomalyReport, task: str, history: str = ""
-) -> Situation:
-    return Situation(
-        anomaly=report.describe(),
-        actions=action_library(),
-        predicates=predicate_list(),
-        environment=environment(house, belief),
-        task=f"the robot must achieve {task}",
-        history=history,
-        calls=PROGRAM_CALLS,
-        objects=tuple(sorted(house.objects)),
-    )
-
-
-# --------------------------------------------------------------------------------- oracle
-
-
-class Oracle:
-    """**Oracle** (an upper bound, never a default): answers with goals computed from the
-    simulator's TRUE state. Implements the LLM protocol so the same loop runs with it."""
-
-    name = "oracle"
-
-    def __init__(self, world: HouseholdWorld, report: Callable[[], AnomalyReport | None]) -> None:
-        self.world = world
-        self.report = report
-
-    def complete(self, request: Request) -> Response:
-        r = self.report()
-        if request.tag == "first-look" or r is None:
-            return Response("Look where the truth says.", model="oracle")
-        return Response(f"(and {' '.join(map(str, self.goals(r)))})", model="oracle")
-
-    def goals(self, r: AnomalyReport) -> list[Atom | Not]:
-        c = r.constraint
-        atom = c.arg if isinstance(c, Not) else c
-        if not isinstance(atom, Atom):
-            return []
-        if atom.predicate == "on" and not isinstance(c, Not):
-            return [self._find(atom.args[0])]
-        if atom.predicate == "full":
-            return [self._clear(atom.args[0])]
-        if atom.predicate == "dirty":
-            return [Atom("cleaned", (atom.args[0],))]
-        return []
-
-    def _find(self, obj: str) -> Atom:
-        truth = self.world.truth
-        cover = truth.covered.get(obj)
-        if cover is not None:
-            return Atom("scanned", (cover,))
-        if obj not in truth.placements:  # held: nothing to look for
-            return Atom("holding", (obj,))
-        return Atom("scanned", (truth.placements[obj].region,))
-
-    def _clear(self, region: str) -> Atom:
-        truth = self.world.truth
-        blocker = sorted(truth.objects_in(region))[0]
-        free = next(
-            r
-            for r in sorted(self.world.layout.regions)
-            if self.world.layout.regions[r].kind == "surface" and not truth.objects_in(r)
-        )
-        return Atom("on", (blocker, free))

@@ -1,5 +1,6 @@
-"""Scenarios of the PyBullet world and their execution without any LLM: belief -> problem ->
-plan -> CSubBTs -> episode (-> an episode folder with the report, snapshots, a GIF, CSubBT XML).
+"""Scenarios of the PyBullet world: the scene, what the robot believes, the goal and what
+happens behind its back; how the scene is set up, the initial belief, the judge of the goal in the
+true state, and the world's files for a run folder (snapshots, camera images, a GIF).
 
 The simulator's true state is used only to build the world, to fire scenario events and to judge
 the outcome afterwards.
@@ -10,27 +11,17 @@ from __future__ import annotations
 import json
 import logging
 import math
-import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from llmpas.execution.context import Belief, Context, Recorder
-from llmpas.execution.csubbt import SubtreeSpec
-from llmpas.execution.executor import Episode, ExecutorConfig, execute
-from llmpas.execution.report import save_episode
+from llmpas.execution.context import Belief
 from llmpas.files import atomic_write
-from llmpas.language.logic import Atom, Formula
-from llmpas.language.problem import Problem
-from llmpas.planning import PlannerConfig, PlanResult, solve
-from llmpas.worlds.pybullet.camera import CameraConfig
-from llmpas.worlds.pybullet.decomposition import ExplorationConfig, build_specs
-from llmpas.worlds.pybullet.problem import initial_belief, make_problem
-from llmpas.worlds.pybullet.scene import TABLE_TOP, ObjectConfig, Scene, SceneConfig, open_client
+from llmpas.worlds.pybullet.problem import initial_belief
+from llmpas.worlds.pybullet.scene import TABLE_TOP, ObjectConfig, Scene, SceneConfig
 from llmpas.worlds.pybullet.snapshot import save_gif, save_png
-from llmpas.worlds.pybullet.streams import Geometry
 from llmpas.worlds.pybullet.values import BaseConf, ObjectPose
 from llmpas.worlds.pybullet.world import Event, PyBulletWorld
 
@@ -133,33 +124,6 @@ def scenarios() -> dict[str, Scenario]:
     }
 
 
-@dataclass(frozen=True)
-class RunConfig:
-    planner: PlannerConfig = field(default_factory=lambda: PlannerConfig(max_time=60.0))
-    exploration: ExplorationConfig = field(default_factory=ExplorationConfig)
-    executor: ExecutorConfig = field(default_factory=ExecutorConfig)
-    camera: CameraConfig = field(default_factory=CameraConfig)
-    seed: int | None = None  # None: the scenario's own seed
-    snapshots: bool = True
-    gui: bool = False
-
-
-@dataclass(frozen=True)
-class PyBulletRun:
-    scenario: Scenario
-    plan: PlanResult
-    specs: tuple[SubtreeSpec, ...]
-    episode: Episode | None
-    achieved: bool  # the goal holds in the simulator's true state (judged afterwards)
-    timings: dict[str, float]
-    log: tuple[str, ...] = ()
-    problem: Problem | None = field(default=None, repr=False)
-
-    @property
-    def succeeded(self) -> bool:
-        return self.episode is not None and self.episode.succeeded and self.achieved
-
-
 def setup_scene(scene: Scene, scenario: Scenario) -> None:
     for obj, bowl in scenario.inside:
         at, _ = scene.pose(bowl)
@@ -199,69 +163,6 @@ def goal_holds(scene: Scene, goal: str) -> bool:
     return bool(inside and cube[2] < bowl[2] + 0.08)
 
 
-class Session:
-    """One scenario's simulation, belief and execution context, across planning rounds."""
-
-    def __init__(self, scenario: Scenario, config: RunConfig, client: int) -> None:
-        self.scenario = scenario
-        self.config = config
-        self.seed = scenario.seed if config.seed is None else config.seed
-        self.timings: dict[str, float] = {}
-        t0 = time.perf_counter()
-        self.scene = Scene(client, scenario.scene)
-        setup_scene(self.scene, scenario)
-        self.timings["build"] = time.perf_counter() - t0
-        self.world = PyBulletWorld(
-            self.scene,
-            np.random.default_rng([self.seed, 0]),
-            config.camera,
-            scenario.seeded_events(np.random.default_rng([self.seed, 4])),
-            snapshots=config.snapshots,
-        )
-        self.belief = belief_for(self.scene, scenario, np.random.default_rng([self.seed, 3]))
-        self.geometry = Geometry(self.scene, np.random.default_rng([self.seed, 1]))
-        self.ctx = Context(
-            self.world, self.world, self.belief, np.random.default_rng([self.seed, 2])
-        )
-        self.rounds = 0
-        self.world.clock = lambda: (self.rounds, len(self.ctx.recorder.events))
-
-    def sync_base(self) -> None:
-        """Believe the base is where odometry says (after a failed subtree drove around)."""
-        here = self.world.base_conf()
-        old = self.belief.matching("atbconf")
-        current = self.belief.values.get(old[0].args[0]) if old else None
-        if isinstance(current, BaseConf) and current.distance(here) < 1e-6:
-            return
-        self.belief.facts -= set(old)
-        q = self.belief.name("q", here)
-        self.belief.facts |= {Atom("bconf", (q,)), Atom("atbconf", (q,))}
-
-    def plan(self, goal: Formula | str) -> tuple[PlanResult, Problem]:
-        self.sync_base()
-        problem = make_problem(self.geometry, self.belief, goal, here=self.world.base_conf())
-        t = time.perf_counter()
-        result = solve(problem, self.config.planner)
-        self.timings["plan"] = self.timings.get("plan", 0.0) + time.perf_counter() - t
-        return result, problem
-
-    def execute(
-        self, result: PlanResult, problem: Problem
-    ) -> tuple[tuple[SubtreeSpec, ...], Episode | None]:
-        if result.plan is None:
-            return (), None
-        specs = tuple(build_specs(self.scene.config, problem, result.plan, self.config.exploration))
-        self.ctx.recorder = Recorder()
-        t = time.perf_counter()
-        episode = execute(specs, self.ctx, self.config.executor)
-        self.timings["execute"] = self.timings.get("execute", 0.0) + time.perf_counter() - t
-        self.rounds += 1
-        return specs, episode
-
-    def achieved(self) -> bool:
-        return goal_holds(self.scene, self.scenario.goal)
-
-
 def resolve(scenario: Scenario | str) -> Scenario:
     if isinstance(scenario, Scenario):
         return scenario
@@ -271,42 +172,12 @@ def resolve(scenario: Scenario | str) -> Scenario:
     return known[scenario]
 
 
-def run_scenario(
-    scenario: Scenario | str, config: RunConfig | None = None, out: str | Path | None = None
-) -> PyBulletRun:
-    """Plan once and execute (no LLM); judge the goal in the true state afterwards."""
-    config = config or RunConfig()
-    scenario = resolve(scenario)
-    t0 = time.perf_counter()
-    with open_client(config.gui) as cid:
-        session = Session(scenario, config, cid)
-        result, problem = session.plan(scenario.goal)
-        specs, episode = session.execute(result, problem)
-        if episode is not None:
-            session.world.snapshot(f"end: {episode.status.value}")
-        timings = dict(session.timings, total=time.perf_counter() - t0)
-        run = PyBulletRun(
-            scenario,
-            result,
-            specs,
-            episode,
-            session.achieved(),
-            timings,
-            tuple(session.world.log),
-            problem,
-        )
-        if out is not None:
-            save_run(run, session.world, out)
-    return run
-
-
-def save_run(run: PyBulletRun, world: PyBulletWorld, folder: str | Path) -> list[Path]:
-    """The episode folder: episode.json, report.md/html, CSubBT XML, snapshots, a GIF."""
+def save_media(world: PyBulletWorld, folder: str | Path, about: dict[str, Any]) -> list[Path]:
+    """Snapshots and camera images (with ``media.json``: where each was made, for the web
+    report), a GIF of the snapshots, and ``run.json`` (``about`` plus the world's log)."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     written: list[Path] = []
-    if run.episode is not None:
-        written += save_episode(run.episode, folder, run.specs, f"PyBullet: {run.scenario.name}")
     media = []  # where each image was made (episode, timeline event), for the web report
     shots = (("snapshot", "snapshots", world.frames), ("camera", "camera", world.images))
     for kind, sub, frames in shots:
@@ -322,23 +193,17 @@ def save_run(run: PyBulletRun, world: PyBulletWorld, folder: str | Path) -> list
     written.append(atomic_write(folder / "media.json", json.dumps(media, indent=2)))
     if world.frames:
         written.append(save_gif([f.rgb for f in world.frames], folder / "episode.gif", 500))
-    summary: dict[str, Any] = {
-        "scenario": run.scenario.name,
-        "succeeded": run.succeeded,
-        "achieved": run.achieved,
-        "timings": {k: round(v, 3) for k, v in run.timings.items()},
-        "world_log": list(run.log),
-    }
+    summary = {**about, "world_log": list(world.log)}
     written.append(atomic_write(folder / "run.json", json.dumps(summary, indent=2)))
     return written
 
 
 __all__ = [
-    "PyBulletRun",
-    "RunConfig",
     "Scenario",
-    "Session",
+    "belief_for",
     "goal_holds",
-    "run_scenario",
+    "resolve",
+    "save_media",
     "scenarios",
+    "setup_scene",
 ]

@@ -1,0 +1,67 @@
+"""The PyBullet world's labelled oracle (an upper bound, never a default): goals from the
+simulator's TRUE state."""
+
+from __future__ import annotations
+
+from llmpas.experiments.oracles import answer, failed_literal, first_look
+from llmpas.language.logic import Atom, Formula, Not
+from llmpas.reasoning.llm import Request, Response
+from llmpas.worlds.pybullet.plugin import PyBulletSession
+from llmpas.worlds.pybullet.scene import Scene
+
+
+class Oracle:
+    """Goals from the true scene for the anomaly in each request."""
+
+    name = "oracle"
+
+    def __init__(self, scene: Scene) -> None:
+        self.scene = scene
+
+    def complete(self, request: Request) -> Response:
+        c = failed_literal(request)
+        return first_look() if c is None else answer(self.goals(c))
+
+    def goals(self, c: Formula) -> list[Atom | Not]:
+        atom = c.arg if isinstance(c, Not) else c
+        if not isinstance(atom, Atom):
+            return []
+        scene = self.scene
+        if atom.predicate == "on" and not isinstance(c, Not):
+            at, _ = scene.pose(atom.args[0])
+            table = next(
+                (t for t, rect in scene.tables.items() if rect.contains(at[0], at[1])), None
+            )
+            return [Atom("scanned", (table,))] if table else []
+        if atom.predicate == "full":
+            return self._clear(atom.args[0])
+        return []
+
+    def _clear(self, bowl: str) -> list[Atom | Not]:
+        scene = self.scene
+        blockers = [
+            o.name
+            for o in scene.config.objects
+            if o.kind == "cube" and o.name != scene.held and self._in(o.name, bowl)
+        ]
+        occupied = {
+            t
+            for o in scene.config.objects
+            for t, rect in scene.tables.items()
+            if rect.contains(*scene.pose(o.name)[0][:2]) and o.name != scene.held
+        }
+        free = [t for t in sorted(scene.tables) if t not in occupied] or sorted(scene.tables)
+        return [Atom("on", (blockers[0], free[0]))] if blockers else []
+
+    def _in(self, obj: str, bowl: str) -> bool:
+        a, _ = self.scene.pose(obj)
+        b, _ = self.scene.pose(bowl)
+        half = self.scene.config.obj(bowl).size / 2
+        return abs(a[0] - b[0]) < half and abs(a[1] - b[1]) < half
+
+
+def oracle(session: PyBulletSession) -> Oracle:
+    return Oracle(session.scene)
+
+
+__all__ = ["Oracle", "oracle"]

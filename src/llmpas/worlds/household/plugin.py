@@ -1,0 +1,195 @@
+"""The household world as a plug-in (:class:`llmpas.worlds.api.World`): shipped scenarios (or a
+TOML file), and a session per scenario holding the simulator, the robot's belief and execution
+context, and the parts the loop asks for. Planning, execution and reasoning live in
+:mod:`llmpas.system`."""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from llmpas.execution.anomaly import AnomalyReport
+from llmpas.execution.context import Belief, Context
+from llmpas.execution.csubbt import SubtreeSpec
+from llmpas.execution.executor import ExecutorConfig
+from llmpas.language.domain import Domain
+from llmpas.language.logic import Formula
+from llmpas.language.problem import Problem
+from llmpas.planning import PlannerConfig
+from llmpas.planning.result import Plan
+from llmpas.reasoning.goals import Vocabulary
+from llmpas.reasoning.prompts import PromptTables
+from llmpas.worlds.api import RunOptions, believed_lost
+from llmpas.worlds.household.decomposition import ExplorationConfig, build_specs
+from llmpas.worlds.household.layout import Layout, kitchen
+from llmpas.worlds.household.problem import (
+    Household,
+    believed_place,
+    initial_belief,
+    load_domain,
+    make_problem,
+)
+from llmpas.worlds.household.reasoning import environment, prompt_tables, vocabulary
+from llmpas.worlds.household.scenario import Scenario, load_scenario
+from llmpas.worlds.household.sim import HouseholdWorld
+
+log = logging.getLogger(__name__)
+SCENARIOS = Path(__file__).parent / "scenarios"
+PLANNER = PlannerConfig(max_time=60.0)
+
+
+def scenario_path(name: str) -> Path:
+    """A shipped scenario by name (``object-loss-table``), or a path to a TOML file."""
+    path = Path(name)
+    if path.suffix == ".toml" or path.exists():
+        return path
+    shipped = SCENARIOS / f"{name}.toml"
+    if not shipped.exists():
+        known = ", ".join(sorted(p.stem for p in SCENARIOS.glob("*.toml")))
+        raise FileNotFoundError(f"no scenario {name!r}; shipped scenarios: {known}")
+    return shipped
+
+
+def belief_from(house: Household, scenario: Scenario) -> Belief:
+    """The robot's belief at the start, from the scenario's [belief] section."""
+    places = {b.name: b.placement for b in scenario.belief.objects}
+    props = {b.name: b.properties for b in scenario.belief.objects if b.properties}
+    opened = [r for r, is_open in scenario.belief.open.items() if is_open]
+    return initial_belief(house, places, scenario.robot, opened, props)
+
+
+def household_for(scenario: Scenario, layout: Layout | None = None) -> Household:
+    return Household(layout or kitchen(), dict(scenario.specs))
+
+
+@dataclass(frozen=True)
+class HouseholdSearch:
+    """Searching in the household: look at a table region, into a drawer, under a cover."""
+
+    house: Household
+    belief: Belief
+    predicate: str = "scanned"
+    location: str = "on"
+    detection: str = "Detected"
+
+    def places(self) -> tuple[str, ...]:
+        return self.house.search_places()
+
+    def looked_at(self, report: AnomalyReport) -> tuple[str, ...]:
+        """The places a failed detection looked at: its ``view`` alternatives."""
+        return tuple(sorted({v.strip("'") for v in report.explored.get("view", ())}))
+
+    def lost(self, obj: str) -> bool:
+        place = believed_place(self.belief, obj)
+        return obj in self.house.objects and believed_lost(self.belief, obj, place)
+
+
+@dataclass(frozen=True)
+class HouseholdSession:
+    """One household scenario across planning rounds (the belief carries over)."""
+
+    scenario: Scenario
+    house: Household
+    sim: HouseholdWorld  # the simulator: only a labelled oracle may read its truth
+    seed: int
+    context: Context
+    planner: PlannerConfig
+    executor: ExecutorConfig
+    exploration: ExplorationConfig
+    domain: Domain = field(default_factory=load_domain)
+    timings: Mapping[str, float] = field(default_factory=dict)
+
+    @classmethod
+    def open(
+        cls, scenario: Scenario, options: RunOptions, exploration: ExplorationConfig
+    ) -> HouseholdSession:
+        house = household_for(scenario)
+        seed = scenario.seed if options.seed is None else options.seed
+        sim = HouseholdWorld(house.layout, scenario, np.random.default_rng([seed, 0]))
+        belief = belief_from(house, scenario)
+        ctx = Context(sim, sim, belief, np.random.default_rng([seed, 2]))
+        planner = options.planner or PLANNER
+        executor = options.executor or ExecutorConfig()
+        return cls(scenario, house, sim, seed, ctx, planner, executor, exploration)
+
+    @property
+    def name(self) -> str:
+        return self.scenario.name
+
+    @property
+    def task(self) -> str:
+        return self.scenario.goal
+
+    @property
+    def belief(self) -> Belief:
+        return self.context.belief
+
+    @property
+    def vocabulary(self) -> Vocabulary:
+        return vocabulary(self.house)
+
+    @property
+    def prompts(self) -> PromptTables:
+        return prompt_tables(self.house)
+
+    @property
+    def search(self) -> HouseholdSearch:
+        return HouseholdSearch(self.house, self.belief)
+
+    def problem(self, goal: Formula | str, index: int) -> Problem:
+        rng = np.random.default_rng([self.seed, index, 1])
+        return make_problem(self.house, self.belief, goal, rng)
+
+    def decompose(self, problem: Problem, plan: Plan) -> Sequence[SubtreeSpec]:
+        return build_specs(self.house, problem, plan, self.exploration)
+
+    def environment(self) -> str:
+        return environment(self.house, self.belief)
+
+    def achieved(self) -> bool | None:
+        """None: the household's verdict is the robot's belief (the suite judges the truth)."""
+        return None
+
+    def save(self, folder: Path) -> list[Path]:
+        return []
+
+
+@dataclass(frozen=True)
+class HouseholdPlugin:
+    """The household world: a kitchen with a hidden true state (``exploration``: how its
+    subtrees explore their constraint spaces)."""
+
+    exploration: ExplorationConfig = field(default_factory=ExplorationConfig)
+    name: str = "household"
+    title: str = "household"
+
+    def scenarios(self) -> dict[str, str]:
+        return {p.stem: "" for p in sorted(SCENARIOS.glob("*.toml"))}
+
+    @contextmanager
+    def open(self, scenario: Any, options: RunOptions) -> Iterator[HouseholdSession]:
+        """``scenario``: a :class:`Scenario`, a shipped name or a TOML file."""
+        if not isinstance(scenario, Scenario):
+            scenario = load_scenario(scenario_path(str(scenario)))
+        if options.gui:
+            log.warning("the household world has no window: gui ignored")
+        yield HouseholdSession.open(scenario, options, self.exploration)
+
+
+WORLD = HouseholdPlugin()
+
+__all__ = [
+    "WORLD",
+    "HouseholdPlugin",
+    "HouseholdSearch",
+    "HouseholdSession",
+    "belief_from",
+    "household_for",
+    "scenario_path",
+]

@@ -1,0 +1,179 @@
+"""The PyBullet world (a Husky + Franka Panda) as a plug-in (:class:`llmpas.worlds.api.World`):
+its scenarios, and a session per scenario in its own physics client holding the scene, the
+simulated robot and camera, the belief and the parts the loop asks for. Planning, execution and
+reasoning live in :mod:`llmpas.system`."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from llmpas.execution.anomaly import AnomalyReport
+from llmpas.execution.context import Belief, Context
+from llmpas.execution.csubbt import SubtreeSpec
+from llmpas.execution.executor import ExecutorConfig
+from llmpas.language.domain import Domain
+from llmpas.language.logic import Atom, Formula
+from llmpas.language.problem import Problem
+from llmpas.planning import PlannerConfig
+from llmpas.planning.result import Plan
+from llmpas.reasoning.goals import Vocabulary
+from llmpas.reasoning.prompts import PromptTables
+from llmpas.worlds.api import RunOptions, believed_lost
+from llmpas.worlds.kitchen import load_domain
+from llmpas.worlds.pybullet.camera import CameraConfig
+from llmpas.worlds.pybullet.decomposition import ExplorationConfig, build_specs, table_of
+from llmpas.worlds.pybullet.problem import believed_pose, make_problem
+from llmpas.worlds.pybullet.reasoning import environment, prompt_tables, vocabulary
+from llmpas.worlds.pybullet.run import (
+    Scenario,
+    belief_for,
+    goal_holds,
+    resolve,
+    save_media,
+    scenarios,
+    setup_scene,
+)
+from llmpas.worlds.pybullet.scene import Scene, SceneConfig, open_client
+from llmpas.worlds.pybullet.streams import Geometry
+from llmpas.worlds.pybullet.values import BaseConf
+from llmpas.worlds.pybullet.world import PyBulletWorld
+
+PLANNER = PlannerConfig(max_time=60.0)
+
+
+@dataclass(frozen=True)
+class TableSearch:
+    """Searching in the PyBullet world: drive to a table and look at it."""
+
+    config: SceneConfig
+    belief: Belief
+    predicate: str = "scanned"
+    location: str = "on"
+    detection: str = "Detected"
+
+    def places(self) -> tuple[str, ...]:
+        return tuple(t.name for t in self.config.tables)
+
+    def looked_at(self, report: AnomalyReport) -> tuple[str, ...]:
+        """The table a failed detection looked at (the region's, for a bowl)."""
+        c = report.constraint
+        if not isinstance(c, Atom) or len(c.args) < 2:
+            return ()
+        return (table_of(self.config, self.belief, c.args[1]),)
+
+    def lost(self, obj: str) -> bool:
+        known = any(o.name == obj for o in self.config.objects)
+        return known and believed_lost(self.belief, obj, believed_pose(self.belief, obj))
+
+
+class PyBulletSession:
+    """One scenario's simulation, belief and execution context, across planning rounds."""
+
+    def __init__(
+        self, scenario: Scenario, plugin: PyBulletPlugin, options: RunOptions, client: int
+    ):
+        self.scenario = scenario
+        self.seed = scenario.seed if options.seed is None else options.seed
+        self.planner = options.planner or PLANNER
+        self.executor = options.executor or ExecutorConfig()
+        self.exploration = plugin.exploration
+        self.timings: dict[str, float] = {}
+        t0 = time.perf_counter()
+        self.scene = Scene(client, scenario.scene)
+        setup_scene(self.scene, scenario)
+        self.timings["build"] = time.perf_counter() - t0
+        self.world = PyBulletWorld(
+            self.scene,
+            np.random.default_rng([self.seed, 0]),
+            plugin.camera,
+            scenario.seeded_events(np.random.default_rng([self.seed, 4])),
+            snapshots=options.snapshots,
+        )
+        belief = belief_for(self.scene, scenario, np.random.default_rng([self.seed, 3]))
+        self.geometry = Geometry(self.scene, np.random.default_rng([self.seed, 1]))
+        self.context = Context(
+            self.world, self.world, belief, np.random.default_rng([self.seed, 2])
+        )
+        self.domain: Domain = load_domain()
+        self.vocabulary: Vocabulary = vocabulary(scenario.scene)
+        self.prompts: PromptTables = prompt_tables(scenario.scene)
+        self.search = TableSearch(scenario.scene, belief)
+        self.rounds = 0  # the episode running (for the marks of snapshots)
+        self.episodes = 0
+        self.world.clock = lambda: (self.rounds, len(self.context.recorder.events))
+
+    @property
+    def name(self) -> str:
+        return self.scenario.name
+
+    @property
+    def task(self) -> str:
+        return self.scenario.goal
+
+    @property
+    def belief(self) -> Belief:
+        return self.context.belief
+
+    def sync_base(self) -> None:
+        """Believe the base is where odometry says (after a failed subtree drove around)."""
+        here = self.world.base_conf()
+        old = self.belief.matching("atbconf")
+        current = self.belief.values.get(old[0].args[0]) if old else None
+        if isinstance(current, BaseConf) and current.distance(here) < 1e-6:
+            return
+        self.belief.facts -= set(old)
+        q = self.belief.name("q", here)
+        self.belief.facts |= {Atom("bconf", (q,)), Atom("atbconf", (q,))}
+
+    def problem(self, goal: Formula | str, index: int) -> Problem:
+        self.sync_base()
+        return make_problem(self.geometry, self.belief, goal, here=self.world.base_conf())
+
+    def decompose(self, problem: Problem, plan: Plan) -> Sequence[SubtreeSpec]:
+        self.rounds, self.episodes = self.episodes, self.episodes + 1
+        return build_specs(self.scene.config, problem, plan, self.exploration)
+
+    def environment(self) -> str:
+        return environment(self.scenario.scene, self.belief)
+
+    def achieved(self) -> bool:
+        """The task judged in the simulator's true state."""
+        return goal_holds(self.scene, self.scenario.goal)
+
+    def save(self, folder: Path) -> list[Path]:
+        self.rounds = self.episodes
+        self.world.snapshot("end")
+        about = {"scenario": self.name, "achieved": self.achieved(), "timings": self.timings}
+        return save_media(self.world, folder, about)
+
+
+@dataclass(frozen=True)
+class PyBulletPlugin:
+    """The PyBullet world (``camera``, ``exploration``: how it senses and explores)."""
+
+    camera: CameraConfig = field(default_factory=CameraConfig)
+    exploration: ExplorationConfig = field(default_factory=ExplorationConfig)
+    name: str = "pybullet"
+    title: str = "PyBullet: Husky + Franka Panda"
+
+    def scenarios(self) -> dict[str, str]:
+        return {name: s.description for name, s in scenarios().items()}
+
+    @contextmanager
+    def open(self, scenario: Any, options: RunOptions) -> Iterator[PyBulletSession]:
+        """``scenario``: a :class:`Scenario` or a shipped name (KeyError naming the known)."""
+        scenario = resolve(scenario)
+        with open_client(options.gui) as client:
+            yield PyBulletSession(scenario, self, options, client)
+
+
+WORLD = PyBulletPlugin()
+
+__all__ = ["WORLD", "PyBulletPlugin", "PyBulletSession", "TableSearch"]
