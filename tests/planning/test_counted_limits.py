@@ -20,12 +20,13 @@ from llmpas.language.streams import read_streams
 from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, solve
 from llmpas.planning import instances as instances_module
 from llmpas.planning import tamp as tamp_module
-from llmpas.planning.downward import _invariant_arguments
+from llmpas.planning.downward import DownwardConfig, _invariant_arguments
 from llmpas.planning.result import Algorithm
 
 DATA = Path(__file__).parent / "data"
 WIDE = {"r1": (0.0, 3.0), "r2": (5.0, 8.0)}
 NARROW = {"r1": (0.0, 3.0), "r2": (5.0, 5.5)}  # r2 is narrower than a block: no pose there
+FF = "ff(axioms=approximate_negative)"
 
 
 def place_problem(
@@ -217,3 +218,11 @@ def test_the_time_safety_net_is_a_timeout_not_unsolvable(monkeypatch: pytest.Mon
     result = solve(place_problem(NARROW), PlannerConfig.validation(max_time=100.0))
     assert result.status is PlanStatus.TIMEOUT, result.message
     assert "max_time=100" in result.message
+
+
+def test_a_search_engines_own_time_limit_is_refused() -> None:
+    # its expiry ends the search like an exhausted space (exit code 12): it would read as
+    # unsolvable, depending on the machine's speed
+    with pytest.raises(ValueError, match="max_time"):
+        DownwardConfig(search=f"lazy_greedy([{FF}],max_time=5)")
+    DownwardConfig(search=f"lazy_greedy([{FF}],bound=20)")  # a cost bound is a count
