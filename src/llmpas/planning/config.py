@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from dataclasses import dataclass
+from typing import Any
 
 from llmpas.planning.result import Algorithm
 
@@ -21,6 +24,31 @@ class PlannerConfig:
     ``forall`` ranges over placeholders (``llmpas bench tamp``), but not complete: on the
     household's blocked-microwave task it exhausted every instance and reported a solvable task
     unsolvable. Off by default (one placeholder per instance).
+
+    Limits. *Counted* limits make the verdict a function of the problem and the config only;
+    reaching one ends planning with status ``limit`` and a message naming it:
+
+    - ``max_iterations``: rounds of the planning loop (focused: optimistic searches, each
+      followed by the evaluation of the streams its plan relies on; incremental: levels).
+    - ``max_stream_calls``: stream calls in all (None: unbounded).
+    - ``max_empty_samples``: how many ``None`` ("nothing this time") a sampler may yield in a row
+      within one call before the call gives up without an output (the instance stays usable).
+      None: it may go on until ``max_time``, so the outcome depends on the machine's speed.
+    - ``max_level``: how deep stream outputs may feed other streams in one optimistic pass.
+
+    Fast Downward has no expansion or state limit (its engines offer only a cost ``bound`` and a
+    ``max_time``), so a classical search runs until it finds a plan or exhausts its finite state
+    space, and its answer depends only on its task. The translator's invariant synthesis is
+    bounded by its candidate count (100000), not by time.
+
+    *Time and memory* limits are safety nets: ``max_time`` (whole call, wall clock),
+    ``search_time`` (wall and CPU clock of each Fast Downward call, at most what is left of
+    ``max_time``) and ``memory_mb``. When one fires the status is ``timeout`` (or ``error`` for
+    memory), never ``unsolvable``: a verdict that depends on the machine's load.
+
+    :attr:`deterministic` holds when every counted limit is set; :meth:`validation` is the preset
+    for deciding whether goals can be planned (the closed loop's validator), where the same
+    inputs must give the same verdict on any machine and under any load.
     """
 
     algorithm: Algorithm = "focused"
@@ -33,15 +61,48 @@ class PlannerConfig:
     seed: int = 0
     share_placeholders: bool = False
     search: str | None = None  # a Fast Downward search string (None: lazy greedy with FF)
+    max_stream_calls: int | None = None
+    max_empty_samples: int | None = None
 
     def __post_init__(self) -> None:
         if self.algorithm not in ("focused", "incremental"):
             raise ValueError(
                 f"algorithm must be 'focused' or 'incremental', got {self.algorithm!r}"
             )
-        if self.max_time <= 0 or self.search_time <= 0:
+        if not (self.max_time > 0 and self.search_time > 0):  # NaN fails too
             raise ValueError("max_time and search_time must be > 0")
+        if not (math.isfinite(self.max_time) and math.isfinite(self.search_time)):
+            raise ValueError("max_time and search_time must be finite (they are safety nets)")
         if self.max_iterations < 1 or self.max_level < 1:
             raise ValueError("max_iterations and max_level must be >= 1")
         if self.memory_mb < 64:
             raise ValueError(f"memory_mb must be >= 64, got {self.memory_mb}")
+        for name in ("max_stream_calls", "max_empty_samples"):
+            value = getattr(self, name)
+            if value is not None and (isinstance(value, bool) or value < 1):
+                raise ValueError(f"{name} must be >= 1 or None, got {value!r}")
+
+    @property
+    def deterministic(self) -> bool:
+        """Whether every counted limit is set, so that only a safety net (reported as
+        ``timeout``) can make the verdict depend on the machine's speed."""
+        return self.max_stream_calls is not None and self.max_empty_samples is not None
+
+    @classmethod
+    def validation(cls, **overrides: Any) -> PlannerConfig:
+        """The preset for validating goals: counted limits decide the verdict, and the time
+        limits are generous safety nets (10 min per call, 5 min per Fast Downward call) meant
+        never to fire; ``overrides`` replace any field (e.g. ``defer``, ``seed``).
+
+        The counts are far above what the household's plans use (76 plans of its scenarios and
+        recorded rounds, ``tests/test_system.py`` and ``tests/worlds/household``: at most 3
+        iterations, 41 stream calls and 3.8 s), so that what was planned within 60 s there is
+        planned within the counts, on any machine."""
+        base = cls(
+            max_time=600.0,
+            search_time=300.0,
+            max_iterations=50,
+            max_stream_calls=2000,
+            max_empty_samples=100,
+        )
+        return dataclasses.replace(base, **overrides)

@@ -8,6 +8,12 @@ call's ``max_time`` covers both), so a grounding blow-up ends as a typed result.
 Outcomes of a task (solved, unsolvable, limits hit, bad PDDL, a crashed or killed process) are
 returned as a :class:`ClassicalPlan` with a :class:`ClassicalStatus`; an installation problem (no
 search binary) raises :class:`PlannerNotFound`. POSIX only (``os.fork``).
+
+The answer depends on the task only, unless a limit fires (then ``timeout`` or
+``out_of_memory``): Fast Downward 26.6's search engines have no expansion or state limit (only a
+cost ``bound`` and ``max_time``), so a search runs until it finds a plan or exhausts its finite
+state space; an engine's own ``max_time`` is refused, since its expiry looks like an exhausted
+space (exit code 12); the translator's invariant synthesis is bounded by its candidate count.
 """
 
 from __future__ import annotations
@@ -47,6 +53,7 @@ LAZY_WASTAR_FF = f"lazy_wastar([{_FF}],preferred=[{_FF}],w=5,cost_type=plusone)"
 _AXIOM_HEURISTICS = ("ff", "add", "hmax", "cg", "cea", "landmark_sum")
 _HEURISTIC_CALL = re.compile(r"\b(" + "|".join(_AXIOM_HEURISTICS) + r")\(")
 _AXIOMS_OPTION = re.compile(r"\baxioms\s*=\s*approximate_negative\b(?!_)")
+_ENGINE_TIME = re.compile(r"\bmax_time\s*=")
 
 #: Wall-clock slack (at most 10 % of the remaining time) before the search process is killed.
 _KILL_GRACE_S = 0.25
@@ -103,6 +110,11 @@ class DownwardConfig:
         if self.memory_mb <= 0:
             raise ValueError(f"memory_mb must be positive, got {self.memory_mb}")
         check_axioms_option(self.search)
+        if _ENGINE_TIME.search(self.search):
+            raise ValueError(
+                f"search {self.search!r} sets a max_time option: an engine's expiry looks like an "
+                "exhausted search (unsolvable); limit time with DownwardConfig.max_time instead"
+            )
 
 
 def _check_max_time(max_time: float) -> None:
@@ -357,14 +369,21 @@ def _run_translator(domain_file: Path, problem_file: Path, sas_file: Path, budge
     from fast_downward.translate import main as translate_main
     from fast_downward.translate import normalize, options, pddl_parser
 
-    arguments = [str(domain_file), str(problem_file)]
-    arguments += ["--invariant-generation-max-time", str(max(1, math.ceil(budget)))]
+    arguments = [str(domain_file), str(problem_file), *_invariant_arguments(budget)]
     options.set_options(arguments)  # the child's own copy of the translator's global options
     task = pddl_parser.open(domain_filename=str(domain_file), problem_filename=str(problem_file))
     normalize.normalize(task)
     sas_task = translate_main.pddl_to_sas(task)
     with open(sas_file, "w") as out:
         sas_task.output(out)
+
+
+def _invariant_arguments(budget: float) -> list[str]:
+    """Invariant synthesis is bounded by its candidate count (the translator's default, 100000),
+    not by time: its CPU-time cut is set past the child's CPU limit (``ceil(budget) + 1``), so
+    that it never fires and the SAS+ task does not depend on the machine's speed; a translation
+    that slow ends as a timeout."""
+    return ["--invariant-generation-max-time", str(math.ceil(budget) + 2)]
 
 
 def _translator_exit(exc: SystemExit) -> _Failure:

@@ -43,7 +43,7 @@ log = logging.getLogger(__name__)
 
 OPTIMISTIC_PREFIX = "#o"
 _END = object()  # sentinel: a stream's iterator is exhausted
-_IDLE = object()  # sentinel: a sampler yielded only None until the deadline
+_IDLE = object()  # sentinel: a sampler yielded only None (up to its limit or the deadline)
 
 
 def is_optimistic(name: str) -> bool:
@@ -52,6 +52,10 @@ def is_optimistic(name: str) -> bool:
 
 class StreamFailure(RuntimeError):
     """A user stream raised an exception; the message names the stream instance."""
+
+
+class LimitReached(RuntimeError):
+    """A counted limit of the planner was reached; the message names it."""
 
 
 @dataclass
@@ -100,11 +104,23 @@ def join(atoms: tuple[Atom, ...], state: State) -> Iterator[dict[str, str]]:
 
 
 class StreamStore:
-    """Real facts, object values and stream-instance records of one planning run."""
+    """Real facts, object values and stream-instance records of one planning run.
 
-    def __init__(self, problem: Problem, deadline: float) -> None:
+    ``max_calls`` bounds the stream calls in all (reaching it raises :class:`LimitReached`
+    before the call); ``max_empty`` bounds the ``None`` a sampler may yield in a row within one
+    call (None: until the deadline)."""
+
+    def __init__(
+        self,
+        problem: Problem,
+        deadline: float,
+        max_calls: int | None = None,
+        max_empty: int | None = None,
+    ) -> None:
         self.problem = problem
         self.deadline = deadline
+        self.max_calls = max_calls
+        self.max_empty = max_empty
         self.facts: set[Atom] = set(problem.init)
         self.rejected: set[Atom] = set()
         self.namer = ValueNamer(taken=problem.all_objects, prefix="s")
@@ -123,6 +139,11 @@ class StreamStore:
         """One more output of the instance (names of new objects), or None when it has none."""
         if rec.exhausted:
             return None
+        if self.max_calls is not None and self.calls.total() >= self.max_calls:
+            raise LimitReached(
+                f"stream-call limit reached: max_stream_calls={self.max_calls} calls made, "
+                f"the next would be {rec.bound.schema.name}({' '.join(rec.inputs)})"
+            )
         start = time.perf_counter()
         try:
             out = self._next(rec)
@@ -131,7 +152,7 @@ class StreamStore:
             self.calls[rec.bound.schema.name] += 1
             rec.calls += 1
         schema = rec.bound.schema
-        if out is _IDLE:  # the sampler yielded only None until the deadline: not exhausted
+        if out is _IDLE:  # the sampler yielded only None (limit or deadline): not exhausted
             return None
         if out is None:
             rec.exhausted = True
@@ -155,19 +176,22 @@ class StreamStore:
 
     def _next(self, rec: Record) -> Any:
         """The next output tuple; None when exhausted; ``_IDLE`` when the sampler yielded only
-        ``None`` ("nothing this time") until the deadline, which is checked on every value."""
+        ``None`` ("nothing this time"), ``max_empty`` times in a row or until the deadline
+        (checked on every value)."""
         if rec.iterator is None:
             values = tuple(self.values.get(n, n) for n in rec.inputs)
             fluents = self._fluents(rec.bound)
             rec.iterator = rec.bound.samples(values, fluents)
         iterator = rec.iterator
+        empty = 0
         while True:
             item = self._guard(rec, lambda: next(iterator, _END))
             if item is _END:
                 return None
             if item is not None:
                 return item
-            if self.out_of_time():
+            empty += 1
+            if (self.max_empty is not None and empty >= self.max_empty) or self.out_of_time():
                 return _IDLE
 
     def _guard(self, rec: Record, fn: Callable[[], Any]) -> Any:
@@ -275,7 +299,7 @@ def optimistic_instances(
                 facts |= set(inst.certified)
                 changed = True
                 if len(out) > limit:
-                    raise RuntimeError(
+                    raise LimitReached(
                         f"more than {limit} optimistic stream instances; lower max_level or "
                         "give stream :domain facts that restrict inputs"
                     )

@@ -15,7 +15,8 @@ from llmpas.language.logic import Atom
 class PlanStatus(enum.Enum):
     SOLVED = "solved"
     UNSOLVABLE = "unsolvable"
-    TIMEOUT = "timeout"
+    TIMEOUT = "timeout"  # a time limit (a safety net) fired: depends on the machine's load
+    LIMIT = "limit"  # a counted limit of the config was reached: not a proof of unsolvability
     CRASHED = "crashed"  # the classical planner (translator or search) died: not a timeout
     ERROR = "error"
 

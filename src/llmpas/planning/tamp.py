@@ -11,6 +11,10 @@ needs no unevaluated stream.
 
 In both, *deferred* streams are never evaluated here: the plan keeps their placeholders and lists,
 per action, the deferred instances the executor must satisfy.
+
+Every decision is taken on counts (iterations, stream calls, a sampler's ``None`` in a row; see
+:class:`~llmpas.planning.config.PlannerConfig`), except where a time limit fires: that ends the
+call with status ``timeout``, whatever else was found so far.
 """
 
 from __future__ import annotations
@@ -44,6 +48,7 @@ from llmpas.planning.downward import (
 )
 from llmpas.planning.guards import guard_quantifiers
 from llmpas.planning.instances import (
+    LimitReached,
     OptInstance,
     StreamFailure,
     StreamStore,
@@ -133,7 +138,9 @@ def solve(
         problem,
         config,
         classical,
-        StreamStore(problem, started + config.max_time),
+        StreamStore(
+            problem, started + config.max_time, config.max_stream_calls, config.max_empty_samples
+        ),
         compile_domain(problem, negative, inline),
         negative,
         assumed,
@@ -147,6 +154,8 @@ def solve(
         return _focused(run)
     except StreamFailure as e:
         return run.result(PlanStatus.ERROR, str(e))
+    except LimitReached as e:
+        return run.result(PlanStatus.LIMIT, str(e))
     except PlannerNotFound as e:
         return run.result(PlanStatus.ERROR, str(e))
 
@@ -161,7 +170,7 @@ def _focused(run: _Run) -> PlanResult:
         run.iterations += 1
         evaluate_negative_tests(store, _negative_streams(run))
         if store.out_of_time():
-            return run.result(PlanStatus.TIMEOUT, f"no plan within {run.config.max_time} s")
+            return _time_limit(run)
         opt = optimistic_instances(
             store,
             run.instantiated,
@@ -187,8 +196,24 @@ def _focused(run: _Run) -> PlanResult:
             return run.result(PlanStatus.SOLVED, "", _final_plan(run, actions, per_step, cost))
         real = _evaluate(run, needed, trace)
         evaluated = _Evaluated(actions, [i for insts in per_step for i in insts], trace, real)
+    return _iteration_limit(run)
+
+
+def _time_limit(run: _Run, where: str = "") -> PlanResult:
     return run.result(
-        PlanStatus.UNSOLVABLE, f"no plan after {run.config.max_iterations} iterations"
+        PlanStatus.TIMEOUT,
+        f"time limit reached: no plan within max_time={run.config.max_time:g} s" + where,
+    )
+
+
+def _iteration_limit(run: _Run) -> PlanResult:
+    if run.store.out_of_time():  # the last iteration may have been cut short by the clock
+        return _time_limit(run)
+    n = run.config.max_iterations
+    return run.result(
+        PlanStatus.LIMIT,
+        f"iteration limit reached: no plan after max_iterations={n} iterations "
+        f"({sum(run.store.calls.values())} stream calls)",
     )
 
 
@@ -329,17 +354,13 @@ def _incremental(run: _Run) -> PlanResult:
         if not _one_level(run):
             return run.result(PlanStatus.UNSOLVABLE, _unsolvable_message(run))
         if store.out_of_time():
-            return run.result(
-                PlanStatus.TIMEOUT,
-                f"no plan within {run.config.max_time} s (incremental level {level})",
-            )
-    return run.result(
-        PlanStatus.UNSOLVABLE, f"no plan after {run.config.max_iterations} iterations"
-    )
+            return _time_limit(run, f" (incremental level {level})")
+    return _iteration_limit(run)
 
 
 def _one_level(run: _Run) -> bool:
-    """Call every reachable, non-deferred, non-exhausted instance once; True if any produced."""
+    """Call every reachable, non-deferred, non-exhausted instance once; True if any produced,
+    or may still produce (a sampler that yielded only ``None`` this time)."""
     store = run.store
     state = State(store.facts)
     produced = False
@@ -348,7 +369,7 @@ def _one_level(run: _Run) -> bool:
             continue
         for env in list(join(b.schema.domain, state)):
             rec = store.record(b, tuple(env[v] for v in b.schema.inputs))
-            if not rec.exhausted and store.call(rec) is not None:
+            if not rec.exhausted and (store.call(rec) is not None or not rec.exhausted):
                 produced = True
             if store.out_of_time():
                 return True
@@ -390,7 +411,7 @@ def _search(
     )
     budget = min(run.config.search_time, run.remaining())
     if budget <= 0:
-        return run.result(PlanStatus.TIMEOUT, f"no plan within {run.config.max_time} s")
+        return _time_limit(run)
     res: ClassicalPlan = run.classical.solve(run.domain_text, task.problem_text, max_time=budget)
     run.translate_time += res.translate_time
     run.search_time += res.search_time
