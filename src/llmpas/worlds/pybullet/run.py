@@ -29,7 +29,7 @@ from llmpas.worlds.pybullet.camera import CameraConfig
 from llmpas.worlds.pybullet.decomposition import ExplorationConfig, build_specs
 from llmpas.worlds.pybullet.problem import initial_belief, make_problem
 from llmpas.worlds.pybullet.scene import TABLE_TOP, ObjectConfig, Scene, SceneConfig, open_client
-from llmpas.worlds.pybullet.snapshot import save_gif, save_png
+from llmpas.worlds.pybullet.snapshot import save_media
 from llmpas.worlds.pybullet.streams import Geometry
 from llmpas.worlds.pybullet.values import BaseConf, ObjectPose
 from llmpas.worlds.pybullet.world import Event, PyBulletWorld
@@ -307,21 +307,7 @@ def save_run(run: PyBulletRun, world: PyBulletWorld, folder: str | Path) -> list
     written: list[Path] = []
     if run.episode is not None:
         written += save_episode(run.episode, folder, run.specs, f"PyBullet: {run.scenario.name}")
-    media = []  # where each image was made (episode, timeline event), for the web report
-    shots = (("snapshot", "snapshots", world.frames), ("camera", "camera", world.images))
-    for kind, sub, frames in shots:
-        for i, frame in enumerate(frames):
-            slug = "".join(ch if ch.isalnum() else "-" for ch in frame.label.lower())[:40]
-            path = save_png(frame.rgb, folder / sub / f"{i:02d}-{slug}.png")
-            written.append(path)
-            episode, event = frame.mark
-            media.append(
-                {"file": f"{sub}/{path.name}", "kind": kind, "label": frame.label}
-                | {"episode": episode, "event": event}
-            )
-    written.append(atomic_write(folder / "media.json", json.dumps(media, indent=2)))
-    if world.frames:
-        written.append(save_gif([f.rgb for f in world.frames], folder / "episode.gif", 500))
+    written += save_media(world.frames, world.images, folder)
     summary: dict[str, Any] = {
         "scenario": run.scenario.name,
         "succeeded": run.succeeded,
