@@ -96,6 +96,7 @@ def test_a_session_satisfies_the_protocol() -> None:
         assert "black_cube (black cube): location unknown" in session.environment()
         assert session.achieved() is False
         assert session.timings["build"] > 0
+        assert "pedestal" in session.scene.bodies and "husky" not in session.scene.bodies
         # no example in the prompt names this world's objects (it would leak the answer)
         sit = situation(session.prompts, "x", session.environment(), session.task)
         for name in session.prompts.objects:
@@ -129,8 +130,17 @@ def test_blocking_yields_the_bowl_is_full() -> None:
         assert "green_cube (green cube): held by the arm" in session.environment()
 
 
-def test_blocking_recovers_with_the_oracles_goals_and_a_replan() -> None:
-    with WORLD.open("tabletop-blocking", QUIET) as session:
+def test_the_bowl_is_a_fixture_no_plan_picks_it() -> None:
+    with WORLD.open("tabletop-nominal", QUIET) as session:
+        problem = session.problem("(and (holding bowl))", 0)
+        assert not solve(problem, session.planner).solved
+
+
+@pytest.mark.parametrize(
+    "seed", [None, *(pytest.param(s, marks=pytest.mark.slow) for s in range(1, 8))]
+)
+def test_blocking_recovers_with_the_oracles_goals_and_a_replan(seed: int | None) -> None:
+    with WORLD.open("tabletop-blocking", RunOptions(seed=seed, snapshots=False)) as session:
         first = attempt(session, session.task)
         assert first.anomaly is not None
         llm = oracle(session)

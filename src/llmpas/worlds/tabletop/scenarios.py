@@ -76,7 +76,6 @@ def scenarios() -> dict[str, Scenario]:
                 "about; a bowl holds one object.",
                 scene(black),
                 task,
-                seed=1,
                 inside=(("black_cube", "bowl"),),
                 unknown=("black_cube",),
             ),

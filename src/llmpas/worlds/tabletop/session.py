@@ -138,7 +138,11 @@ class TabletopSession:
                 poses[o.name] = ObjectPose(
                     o.table, round(float(at[0]), 3), round(float(at[1]), 3), z
                 )
-        return initial_belief(self.scene.config, poses, BaseConf(*self.scene.config.base))
+        belief = initial_belief(self.scene.config, poses, BaseConf(*self.scene.config.base))
+        # a bowl (16 cm) is wider than the gripper opens (8 cm): a fixture, not an object to pick
+        bowls = {o.name for o in self.scene.config.objects if o.kind == "bowl"}
+        belief.facts -= {Atom.of("Object", b) for b in bowls}
+        return belief
 
     @property
     def name(self) -> str:
