@@ -76,7 +76,9 @@ class FixedGeometry(Geometry):
 class Search:
     """Searching at a fixed table: looking at it (``scanned``)."""
 
-    predicate, location, detection = "scanned", "on", "Detected"
+    predicate = "scanned"
+    location = "on"
+    detection = "Detected"
 
     def __init__(self, session: TabletopSession) -> None:
         self.session = session
