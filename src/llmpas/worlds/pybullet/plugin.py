@@ -36,7 +36,7 @@ from llmpas.worlds.pybullet.run import (
     belief_for,
     goal_holds,
     resolve,
-    save_media,
+    save_world,
     scenarios,
     setup_scene,
 )
@@ -151,7 +151,7 @@ class PyBulletSession:
         self.rounds = self.episodes
         self.world.snapshot("end")
         about = {"scenario": self.name, "achieved": self.achieved(), "timings": self.timings}
-        return save_media(self.world, folder, about)
+        return save_world(self.world, folder, about)
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,7 @@ from llmpas.execution.context import Belief
 from llmpas.files import atomic_write
 from llmpas.worlds.pybullet.problem import initial_belief
 from llmpas.worlds.pybullet.scene import TABLE_TOP, ObjectConfig, Scene, SceneConfig
-from llmpas.worlds.pybullet.snapshot import save_gif, save_png
+from llmpas.worlds.pybullet.snapshot import save_media
 from llmpas.worlds.pybullet.values import BaseConf, ObjectPose
 from llmpas.worlds.pybullet.world import Event, PyBulletWorld
 
@@ -172,27 +172,12 @@ def resolve(scenario: Scenario | str) -> Scenario:
     return known[scenario]
 
 
-def save_media(world: PyBulletWorld, folder: str | Path, about: dict[str, Any]) -> list[Path]:
+def save_world(world: PyBulletWorld, folder: str | Path, about: dict[str, Any]) -> list[Path]:
     """Snapshots and camera images (with ``media.json``: where each was made, for the web
     report), a GIF of the snapshots, and ``run.json`` (``about`` plus the world's log)."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    written: list[Path] = []
-    media = []  # where each image was made (episode, timeline event), for the web report
-    shots = (("snapshot", "snapshots", world.frames), ("camera", "camera", world.images))
-    for kind, sub, frames in shots:
-        for i, frame in enumerate(frames):
-            slug = "".join(ch if ch.isalnum() else "-" for ch in frame.label.lower())[:40]
-            path = save_png(frame.rgb, folder / sub / f"{i:02d}-{slug}.png")
-            written.append(path)
-            episode, event = frame.mark
-            media.append(
-                {"file": f"{sub}/{path.name}", "kind": kind, "label": frame.label}
-                | {"episode": episode, "event": event}
-            )
-    written.append(atomic_write(folder / "media.json", json.dumps(media, indent=2)))
-    if world.frames:
-        written.append(save_gif([f.rgb for f in world.frames], folder / "episode.gif", 500))
+    written = save_media(world.frames, world.images, folder)
     summary = {**about, "world_log": list(world.log)}
     written.append(atomic_write(folder / "run.json", json.dumps(summary, indent=2)))
     return written
@@ -203,7 +188,7 @@ __all__ = [
     "belief_for",
     "goal_holds",
     "resolve",
-    "save_media",
+    "save_world",
     "scenarios",
     "setup_scene",
 ]

@@ -1,5 +1,9 @@
 """The PyBullet scene: a Husky with a Franka Panda on top, two tables, a bowl and cubes.
 
+With ``SceneConfig(mount="pedestal")`` the Panda stands on a fixed pedestal instead of the Husky
+(the same mount height; the pedestal takes the Husky's place, so base poses, the mast camera and
+the mount-contact filter of the collision checks work unchanged).
+
 A :class:`Scene` lives in one physics client that the caller owns (``open_client`` is a context
 manager that connects and always disconnects); nothing here is module-global and nothing connects
 at import. The Husky is kinematic: the base moves by resetting the Husky's and the Panda's poses
@@ -144,6 +148,7 @@ class SceneConfig:
     objects: tuple[ObjectConfig, ...] = field(default_factory=_default_objects)
     base: tuple[float, float, float] = (0.0, 0.0, 0.0)  # Husky x, y, yaw
     time_step: float = 1.0 / 240.0
+    mount: str = "husky"  # what the Panda stands on: "husky" (mobile) or "pedestal" (fixed)
 
     def __post_init__(self) -> None:
         names = [t.name for t in self.tables] + [o.name for o in self.objects]
@@ -157,6 +162,8 @@ class SceneConfig:
             raise ValueError("base must be (x, y, yaw)")
         if not 0.0 < self.time_step <= 0.05:
             raise ValueError(f"time_step {self.time_step} out of (0, 0.05]")
+        if self.mount not in ("husky", "pedestal"):
+            raise ValueError(f"mount must be 'husky' or 'pedestal', got {self.mount!r}")
 
     def table(self, name: str) -> TableConfig:
         for t in self.tables:
@@ -221,7 +228,7 @@ class Scene:
         self.config = config
         self.bodies: dict[str, int] = {}
         self.tables: dict[str, Rect] = {t.name: table_rect(t) for t in config.tables}
-        self.husky, self.panda = self._load_robot()
+        self.husky, self.panda = self._load_robot()  # husky: the body the Panda stands on
         self.bodies["plane"] = p.loadURDF("plane.urdf", physicsClientId=client)
         for t in config.tables:
             with quiet_fds():
@@ -248,7 +255,12 @@ class Scene:
     def _load_robot(self) -> tuple[int, int]:
         c = self.client
         with quiet_fds():
-            husky = p.loadURDF("husky/husky.urdf", [0, 0, 0], useFixedBase=True, physicsClientId=c)
+            if self.config.mount == "pedestal":
+                husky = self._load_pedestal()
+            else:
+                husky = p.loadURDF(
+                    "husky/husky.urdf", [0, 0, 0], useFixedBase=True, physicsClientId=c
+                )
             panda = p.loadURDF(
                 "franka_panda/panda.urdf",
                 MOUNT_OFFSET,
@@ -256,7 +268,7 @@ class Scene:
                 flags=p.URDF_USE_SELF_COLLISION,
                 physicsClientId=c,
             )
-        self.bodies["husky"] = husky
+        self.bodies[self.config.mount] = husky
         self.bodies["panda"] = panda
         for j in range(p.getNumJoints(panda, physicsClientId=c)):
             p.changeDynamics(panda, j, linearDamping=0, angularDamping=0, physicsClientId=c)
@@ -265,6 +277,22 @@ class Scene:
                 panda, j, lateralFriction=1.5, spinningFriction=0.01, physicsClientId=c
             )
         return husky, panda
+
+    def _load_pedestal(self) -> int:
+        """A fixed grey box under the Panda's base, its frame on the floor like the Husky's."""
+        c, (mx, my, mz) = self.client, MOUNT_OFFSET
+        half, at = [0.1, 0.1, mz / 2], [mx, my, mz / 2]
+        col = p.createCollisionShape(
+            p.GEOM_BOX, halfExtents=half, collisionFramePosition=at, physicsClientId=c
+        )
+        vis = p.createVisualShape(
+            p.GEOM_BOX,
+            halfExtents=half,
+            visualFramePosition=at,
+            rgbaColor=(0.4, 0.4, 0.4, 1),
+            physicsClientId=c,
+        )
+        return int(p.createMultiBody(0.0, col, vis, [0, 0, 0], physicsClientId=c))
 
     def _load_object(self, o: ObjectConfig) -> int:
         c = self.client

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import json
 import logging
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
+from llmpas.files import atomic_write
 from llmpas.worlds.pybullet.camera import CameraConfig, Image, render
 from llmpas.worlds.pybullet.scene import Scene
 
@@ -55,3 +58,34 @@ def save_gif(frames: Sequence[np.ndarray], path: str | Path, frame_ms: int = 200
 def is_blank(rgb: np.ndarray, min_std: float = 5.0) -> bool:
     """Whether an image is (nearly) uniform: a failed render."""
     return float(np.asarray(rgb, dtype=float).std()) < min_std
+
+
+class Shot(Protocol):
+    """A labelled image made at a mark (episodes executed before it, timeline events before it):
+    a :class:`~llmpas.worlds.pybullet.world.Frame`."""
+
+    label: str
+    rgb: np.ndarray
+    mark: tuple[int, int]
+
+
+def save_media(frames: Sequence[Shot], images: Sequence[Shot], folder: str | Path) -> list[Path]:
+    """Overview snapshots (``snapshots/``), camera views (``camera/``), ``media.json`` (where
+    each image was made, for the web report) and ``episode.gif`` of the snapshots."""
+    folder = Path(folder)
+    written: list[Path] = []
+    media = []
+    for kind, sub, shots in (("snapshot", "snapshots", frames), ("camera", "camera", images)):
+        for i, frame in enumerate(shots):
+            slug = "".join(ch if ch.isalnum() else "-" for ch in frame.label.lower())[:40]
+            path = save_png(frame.rgb, folder / sub / f"{i:02d}-{slug}.png")
+            written.append(path)
+            episode, event = frame.mark
+            media.append(
+                {"file": f"{sub}/{path.name}", "kind": kind, "label": frame.label}
+                | {"episode": episode, "event": event}
+            )
+    written.append(atomic_write(folder / "media.json", json.dumps(media, indent=2)))
+    if frames:
+        written.append(save_gif([f.rgb for f in frames], folder / "episode.gif", 500))
+    return written

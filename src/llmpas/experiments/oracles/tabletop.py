@@ -1,0 +1,55 @@
+"""**Oracle** for the tabletop world (a labelled upper bound, never a default): goals computed
+from PyBullet's TRUE scene for the anomaly the request carries (``request.situation.constraint``,
+the failed literal as data)."""
+
+from __future__ import annotations
+
+from llmpas.language.logic import Atom, Formula, Not
+from llmpas.reasoning.llm import LLM, Request, Response
+from llmpas.worlds.tabletop import TabletopSession
+
+
+class TabletopOracle:
+    name = "oracle"
+
+    def __init__(self, session: TabletopSession) -> None:
+        self.session = session
+
+    def complete(self, request: Request) -> Response:
+        if request.tag == "first-look":
+            return Response("Look at what the scene really holds.", model="oracle")
+        constraint = getattr(request.situation, "constraint", None)
+        goals = self.goals(constraint) if isinstance(constraint, Formula) else []
+        return Response(f"(and {' '.join(map(str, goals))})", model="oracle")
+
+    def goals(self, constraint: Formula) -> list[Atom]:
+        """``(full B)`` (also negated): every cube truly in bowl B to a table; ``(on O R)`` (a
+        failed detection): look at the table O truly is on."""
+        atom = constraint.arg if isinstance(constraint, Not) else constraint
+        if not isinstance(atom, Atom):
+            return []
+        scene = self.session.scene
+        if atom.predicate == "full":
+            table = next(iter(scene.tables))
+            return [
+                Atom("on", (o.name, table))
+                for o in scene.config.objects
+                if o.kind == "cube"
+                and o.name != scene.held
+                and self._region(o.name) == atom.args[0]
+            ]
+        if atom.predicate == "on":
+            region = self._region(atom.args[0])
+            return [Atom("scanned", (region,))] if region in scene.tables else []
+        return []
+
+    def _region(self, obj: str) -> str | None:
+        at, _ = self.session.scene.pose(obj)
+        return self.session.scene.region_of(*at)
+
+
+def oracle(session: TabletopSession) -> LLM:
+    return TabletopOracle(session)
+
+
+__all__ = ["TabletopOracle", "oracle"]
