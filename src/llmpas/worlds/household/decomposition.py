@@ -386,9 +386,26 @@ class Builder(PlanBuilder):
 
     def scan(self, step: PlanStep) -> Recipe:
         region = step.args[0]
+        check = self._check(step)
+        if step.action == "scan_container":  # (searched R) is the goal's, not the belief's
+            pre = self._precondition(step)
+            target = Atom("searched", (region,))
+
+            def searched(v: Values, ctx: Context) -> str | None:
+                added = target not in ctx.belief.facts
+                ctx.belief.facts.add(target)
+                try:
+                    return pre.check(v, ctx)
+                finally:
+                    if added:
+                        ctx.belief.facts.discard(target)
+
+            check = SubAction(
+                "check", lambda v, c: OK, constraints=(Constraint(pre.name, searched, pre.atom),)
+            )
         return (self._view_bases(lambda v: region),), (
             self._go("go_look", "view_base"),
-            self._check(step),
+            check,
             self._look(lambda v, c: region),
         )
 

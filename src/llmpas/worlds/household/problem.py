@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 
 from llmpas.execution.context import Belief
-from llmpas.language.logic import Atom, Formula
-from llmpas.language.problem import Problem
+from llmpas.language.logic import Atom, Formula, atoms_of
+from llmpas.language.problem import Problem, parse_formula
 from llmpas.worlds.household.layout import Layout, ObjectSpec
 from llmpas.worlds.household.streams import DEFAULT_DEFERRED, make_streams
 from llmpas.worlds.household.values import BaseConf, Placement
@@ -179,14 +179,16 @@ def make_problem(
     deferred: Collection[str] = DEFAULT_DEFERRED,
 ) -> Problem:
     """The planning problem from the believed state."""
+    domain = load_domain()
     facts = set(belief.facts) | capacity_facts(house, belief) | blocking_facts(house, belief)
+    facts |= search_facts(house, goal if not isinstance(goal, str) else parse_formula(goal, domain))
     used = {t for a in facts for t in a.args}
     values: dict[str, Any] = {n: v for n, v in belief.values.items() if n in used}
     streams = make_streams(
         house.layout, house.objects, lambda o: believed_place(belief, o), rng, deferred
     )
     return Problem.create(
-        load_domain(),
+        domain,
         load_streams(),
         init=sorted(facts),
         goal=goal,
@@ -194,3 +196,19 @@ def make_problem(
         objects=values,
         name="household",
     )
+
+
+def search_facts(house: Household, goal: Formula) -> set[Atom]:
+    """``(searched C)`` for the closed containers (fridge, microwave) the goal asks to scan.
+
+    ``Scanned`` is in no precondition, so ``scan_container`` is relevant only to such a goal;
+    leaving it out of other problems keeps their search exactly as it was before the action
+    existed."""
+    containers = {
+        r.name for r in house.layout.regions.values() if r.openable and not is_drawer(r.name)
+    }
+    return {
+        Atom("searched", a.args)
+        for a in atoms_of(goal)
+        if a.predicate == "scanned" and a.args[0] in containers
+    }

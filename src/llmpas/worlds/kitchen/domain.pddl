@@ -16,6 +16,7 @@
     (Sink ?r) (Stove ?r) (Microwave ?r) (Fridge ?r)
     (Single ?r) (Double ?r)             ; room for one object, for two
     (Jammed ?r) (Blocks ?p ?r)          ; a door that does not open; a pose in front of door ?r
+    (Searched ?r)                       ; a closed container (not a drawer) to look into
     (Stackable ?o ?r)
     (Pose ?o ?p) (Supported ?o ?p ?r) (AtPose ?o ?p)
     (Grasp ?o ?g) (AtGrasp ?o ?g) (HandEmpty)
@@ -74,8 +75,8 @@
     :effect (and (Scanned ?r) (CanMove) (increase (total-cost) 1)))
 
   (:action scan_container                ; look into the open fridge or microwave
-    :parameters (?r ?q)
-    :precondition (and (Openable ?r) (not (Drawer ?r)) (Open ?r) (View ?r ?q) (AtBConf ?q))
+    :parameters (?r ?q)                 ; (Searched ?r): a container a goal asks to search
+    :precondition (and (Searched ?r) (Open ?r) (View ?r ?q) (AtBConf ?q))
     :effect (and (Scanned ?r) (CanMove) (increase (total-cost) 1)))
 
   (:action scan_cover                   ; lift the cover, look under it, put it back
