@@ -34,10 +34,21 @@ from llmpas.worlds.household.problem import (
     believe_at,
     believed_place,
 )
-from llmpas.worlds.household.state import PROPERTIES
+from llmpas.worlds.household.state import PROPERTIES, VISIBLE
 from llmpas.worlds.household.values import ArmTarget, BaseConf, Grasp, Motion, Placement
 
-BASE_ACTIONS = ("pick", "place", "scan_table", "scan_drawer", "scan_cover", "open", "close")
+BASE_ACTIONS = (
+    "pick",
+    "place",
+    "scan_table",
+    "scan_drawer",
+    "scan_container",
+    "scan_cover",
+    "open",
+    "close",
+)
+FADES = frozenset(VISIBLE - {"cleaned", "cooked", "heated", "cooled"})
+"""Visible states that a look without them shows gone (seen clean, dry, whole)."""
 OK = SkillResult.success()
 
 
@@ -64,12 +75,15 @@ def observe(belief: Belief, house: Household, obs: Observation) -> None:
         if not isinstance(d.pose, Placement):
             continue
         _believe_seen(belief, house, d.obj, d.pose)
+        region = house.layout.regions.get(d.pose.region)
+        if region is not None and region.capacity == 2:  # seen in use: its limit matters
+            belief.facts.add(Atom("double", (region.name,)))
         for prop, pred in PROPERTY_PREDICATE.items():
             atom = Atom(pred.lower(), (d.obj,))
             if prop in d.properties:
                 belief.facts.add(atom)
-            elif prop == "dirty":
-                belief.facts.discard(atom)  # seen clean
+            elif prop in FADES:
+                belief.facts.discard(atom)  # seen clean, dry, whole
 
 
 def furniture_of(house: Household, region: str) -> str:
@@ -124,6 +138,7 @@ class Builder(PlanBuilder):
             "place": self.place,
             "scan_table": self.scan,
             "scan_drawer": self.scan,
+            "scan_container": self.scan,
             "scan_cover": self.scan_cover,
             "open": self.open_close,
             "close": self.open_close,
@@ -229,15 +244,37 @@ class Builder(PlanBuilder):
     # ---------------------------------------------------------------- recipes
     def _locate(self, obj: str, region: str) -> Recipe:
         furniture = furniture_of(self.house, region)
+        layout = self.house.layout
+        # the other parts of the same table top are in view too; a container (one drawer of
+        # the cabinet) shows only its own inside, and only when it is open
         siblings = [region] + [
-            r.name for r in self.house.layout.regions_of(furniture) if r.name != region
+            r.name
+            for r in layout.regions_of(furniture)
+            if r.name != region and not r.openable and not layout.regions[region].openable
         ]
+
+        seen_at: list[Placement] = []  # where this subtree has seen the object
+
+        def views(v: Values) -> Iterator[str]:
+            yield region
+            for other in siblings[1:]:
+                if not seen_at:  # once seen, a failure later on is not for want of looking
+                    yield other
+
+        def visible(v: Values, ctx: Context) -> str | None:
+            view = v["view"]
+            r = layout.regions.get(view)
+            if r is None or not r.openable or view in v["observed"].viewed:
+                return None
+            ctx.belief.facts.discard(Atom("open", (view,)))  # seen closed
+            return f"{view} is closed: nothing inside it could be seen"
 
         def detected(v: Values, ctx: Context) -> str | None:
             d = v["observed"].find(obj)
             where = getattr(d.pose, "region", "") if d is not None else ""
             if d is None or furniture_of(self.house, where) != furniture:
                 return f"{obj} not seen when looking at {v['view']}"
+            seen_at.append(d.pose)
             ctx.perceive("detected", d.pose)
             return None
 
@@ -246,12 +283,13 @@ class Builder(PlanBuilder):
         )
         dims = (
             self._view_bases(lambda v: self._holder_region(region)),
-            Dimension("view", lambda v: list(siblings), budget=len(siblings)),
+            Dimension("view", views, budget=len(siblings)),
         )
+        seen = Constraint("Visible", visible, lambda v: Atom("open", (v["view"],)), needs=("view",))
         subs = (
             self._go("go_look", "view_base"),
             self._look(lambda v, c: v["view"], needs=("view",)),
-            SubAction("locate", lambda v, c: OK, constraints=(found,)),
+            SubAction("locate", lambda v, c: OK, constraints=(seen, found)),
         )
         return dims, subs
 
@@ -298,22 +336,41 @@ class Builder(PlanBuilder):
             return None
 
         spot = Constraint("Located", find_spot, lambda v: Atom("region", (region,)))
-        released = Constraint(
-            "Released", lambda v, c: None, lambda v: Atom("on", (obj, region)), needs=("base",)
-        )
+        mistaken: dict[str, str] = {}
+
+        def release(v: Values, c: Context) -> SkillResult:
+            result = c.robot.release(obj, v["spot"])
+            if not result.ok and result.data.get("reason") == "not_held":
+                held = c.robot.holding()
+                if held is not None and held != obj and held in self.house.objects:
+                    self._mistook(c.belief, obj, held)  # a lookalike was picked up
+                    mistaken["held"] = held
+            return result
+
+        def released_atom(v: Values) -> Atom:
+            return Atom("holding", (obj,)) if mistaken else Atom("on", (obj, region))
+
+        released = Constraint("Released", lambda v, c: None, released_atom, needs=("base",))
         dims = (self._view_bases(lambda v: self._holder_region(region)),)
         return dims + self._reach_dims(obj, lambda v: v["spot"], ["top"]), (
             self._go("go_look", "view_base"),
             self._look(where),
             self._check(step, spot),
             *self._approach(lambda v: v["spot"]),
-            SubAction(
-                "release",
-                lambda v, c: c.robot.release(obj, v["spot"]),
-                needs=("base",),
-                on_failure=released,
-            ),
+            SubAction("release", release, needs=("base",), on_failure=released),
         )
+
+    def _mistook(self, belief: Belief, obj: str, held: str) -> None:
+        """The hand holds ``held``, not ``obj``: the grasp is ``held``'s, and where ``obj`` is
+        is unknown."""
+        grasps = belief.matching("atgrasp", obj)
+        belief.replace(
+            [*grasps, *belief.matching("grasp", obj)],
+            [Atom(a.predicate, (held, a.args[1])) for a in grasps]
+            + [Atom("grasp", (held, a.args[1])) for a in grasps],
+        )
+        believe_at(belief, held, None)
+        believe_at(belief, obj, None)
 
     def _holder_region(self, region: str) -> str:
         """The layout region to look at: the region itself, or where a receptacle object stood
@@ -329,9 +386,26 @@ class Builder(PlanBuilder):
 
     def scan(self, step: PlanStep) -> Recipe:
         region = step.args[0]
+        check = self._check(step)
+        if step.action == "scan_container":  # (searched R) is the goal's, not the belief's
+            pre = self._precondition(step)
+            target = Atom("searched", (region,))
+
+            def searched(v: Values, ctx: Context) -> str | None:
+                added = target not in ctx.belief.facts
+                ctx.belief.facts.add(target)
+                try:
+                    return pre.check(v, ctx)
+                finally:
+                    if added:
+                        ctx.belief.facts.discard(target)
+
+            check = SubAction(
+                "check", lambda v, c: OK, constraints=(Constraint(pre.name, searched, pre.atom),)
+            )
         return (self._view_bases(lambda v: region),), (
             self._go("go_look", "view_base"),
-            self._check(step),
+            check,
             self._look(lambda v, c: region),
         )
 
@@ -402,13 +476,33 @@ class Builder(PlanBuilder):
     def open_close(self, step: PlanStep) -> Recipe:
         region = step.args[0]
         opening = step.action == "open"
+        revealed: dict[str, Atom] = {}
+
+        def run(v: Values, c: Context) -> SkillResult:
+            result = c.robot.open(region) if opening else c.robot.close(region)
+            reason = result.data.get("reason")
+            if result.ok or reason not in ("jammed", "obstructed"):
+                return result
+            if reason == "jammed":  # the reason enters the belief: the planner avoids it
+                revealed["fact"] = Atom("jammed", (region,))
+                c.belief.replace((), [revealed["fact"]])
+            else:  # look at the floor in front of it: what blocks it is then believed there
+                revealed["fact"] = Atom("obstructed", (region,))
+                for r in self.house.layout.regions:
+                    if self.house.layout.on_floor(r):
+                        observe(c.belief, self.house, c.perception.look(r))
+            return result
+
+        def failed(v: Values) -> Atom | Not:  # as a skill failure, unless a reason is known
+            fact = revealed.get("fact")
+            return Not(fact) if fact is not None else Atom(step.action, ())
+
+        blocked = Constraint(
+            f"{step.action}-succeeds", lambda v, c: None, failed, needs=("view_base",)
+        )
         return (self._view_bases(lambda v: region),), (
             self._go("go_to", "view_base"),
-            SubAction(
-                step.action,
-                lambda v, c: c.robot.open(region) if opening else c.robot.close(region),
-                needs=("view_base",),
-            ),
+            SubAction(step.action, run, needs=("view_base",), on_failure=blocked),
             self._look(lambda v, c: region),
         )
 

@@ -27,7 +27,7 @@ def base_free(layout: Layout, x: float, y: float, clearance: float = 0.0) -> boo
     w, h = layout.size
     if not (r <= x <= w - r and r <= y <= h - r):
         return False
-    return all(rect_distance(x, y, f.rect) >= r for f in layout.furniture.values())
+    return all(rect_distance(x, y, f.rect) >= r for f in layout.solid())
 
 
 CLEARANCE = 0.05  # m kept free around the base, beyond its radius, for odometry errors
@@ -41,7 +41,7 @@ def blocking(
     for i in range(n + 1):
         t = i / n
         x, y = a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)
-        for f in layout.furniture.values():
+        for f in layout.solid():
             if rect_distance(x, y, f.rect) < layout.robot_radius + clearance:
                 return f.name
         w, h = layout.size

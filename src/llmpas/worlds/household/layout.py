@@ -18,8 +18,9 @@ Rect = tuple[float, float, float, float]  # x0, y0, x1, y1
 @dataclass(frozen=True)
 class Furniture:
     name: str
-    rect: Rect  # footprint on the floor: the base cannot drive through it
+    rect: Rect  # footprint on the floor: the base cannot drive through it (when solid)
     height: float
+    solid: bool = True  # False for the floor itself: the base drives over it
 
     def center(self) -> tuple[float, float]:
         x0, y0, x1, y1 = self.rect
@@ -45,10 +46,13 @@ class Region:
     process: str | None = None
     capacity: int | None = None
     openable: bool = False
+    front: Rect | None = None  # the floor in front of its door: what stands there blocks it
 
     def __post_init__(self) -> None:
         if self.kind not in ("surface", "container", "appliance", "receptacle"):
             raise ValueError(f"region {self.name!r}: unknown kind {self.kind!r}")
+        if self.capacity is not None and self.capacity < 1:
+            raise ValueError(f"region {self.name!r}: capacity must be >= 1, got {self.capacity}")
 
     def center(self) -> tuple[float, float]:
         x0, y0, x1, y1 = self.rect
@@ -87,7 +91,34 @@ class Layout:
         return tuple(r for r in self.regions.values() if r.furniture == furniture)
 
     def tables(self) -> tuple[str, ...]:
-        return tuple(sorted({r.furniture for r in self.regions.values() if r.kind == "surface"}))
+        return tuple(
+            sorted(
+                {
+                    r.furniture
+                    for r in self.regions.values()
+                    if r.kind == "surface" and self.furniture[r.furniture].solid
+                }
+            )
+        )
+
+    def on_floor(self, region: str) -> bool:
+        """``region`` is part of the floor (not on solid furniture)."""
+        r = self.regions.get(region)
+        return r is not None and not self.furniture[r.furniture].solid
+
+    def solid(self) -> tuple[Furniture, ...]:
+        """The furniture the base cannot drive through (everything but the floor)."""
+        return tuple(f for f in self.furniture.values() if f.solid)
+
+    def blocked_by(self, region: str, x: float, y: float, radius: float) -> bool:
+        """A disc at (x, y) on the floor stands in front of ``region``'s door."""
+        front = self.region(region).front
+        if front is None:
+            return False
+        x0, y0, x1, y1 = front
+        dx = max(x0 - x, 0.0, x - x1)
+        dy = max(y0 - y, 0.0, y - y1)
+        return math.hypot(dx, dy) < radius
 
 
 def _halves(table: str, rect: Rect, height: float) -> dict[str, Region]:
@@ -99,9 +130,17 @@ def _halves(table: str, rect: Rect, height: float) -> dict[str, Region]:
     }
 
 
-def kitchen() -> Layout:
+FLOOR = "floor"
+FLOOR_RECT: Rect = (0.55, 0.65, 5.15, 4.15)
+"""The open floor between the furniture (a region only in houses with a floor)."""
+
+
+def kitchen(floor: bool = False) -> Layout:
     """Two tables (two regions each), a counter with sink, stove and microwave, a fridge, and a
-    cabinet of four drawers."""
+    cabinet of four drawers; with ``floor``, the open floor between them is a region too (where
+    things fall, and where an obstacle can stand in front of a door).
+
+    Capacities: a drawer, the sink and the fridge shelf hold two objects, the microwave one."""
     furniture = {
         "table1": Furniture("table1", (0.9, 4.2, 2.1, 5.0), 0.75),
         "table2": Furniture("table2", (3.9, 4.2, 5.1, 5.0), 0.75),
@@ -113,7 +152,7 @@ def kitchen() -> Layout:
     regions |= _halves("table1", furniture["table1"].rect, 0.75)
     regions |= _halves("table2", furniture["table2"].rect, 0.75)
     regions["sink"] = Region(
-        "sink", "appliance", "counter", (0.8, 0.05, 1.5, 0.55), 0.85, process="clean"
+        "sink", "appliance", "counter", (0.8, 0.05, 1.5, 0.55), 0.85, process="clean", capacity=2
     )
     regions["stove"] = Region(
         "stove", "appliance", "counter", (2.0, 0.05, 2.7, 0.55), 0.9, process="cook"
@@ -127,6 +166,7 @@ def kitchen() -> Layout:
         process="heat",
         capacity=1,
         openable=True,
+        front=(3.3, 0.6, 4.2, 1.0),
     )
     regions["fridge"] = Region(
         "fridge",
@@ -135,7 +175,9 @@ def kitchen() -> Layout:
         (5.25, 1.65, 5.95, 2.55),
         1.0,
         process="cool",
+        capacity=2,
         openable=True,
+        front=(4.8, 1.6, 5.2, 2.6),
     )
     for i in range(4):
         y0 = 1.6 + 0.5 * i
@@ -147,7 +189,11 @@ def kitchen() -> Layout:
             0.6,
             capacity=2,
             openable=True,
+            front=(0.5, y0, 0.9, y0 + 0.5),
         )
+    if floor:
+        furniture[FLOOR] = Furniture(FLOOR, FLOOR_RECT, 0.0, solid=False)
+        regions[FLOOR] = Region(FLOOR, "surface", FLOOR, FLOOR_RECT, 0.0)
     return Layout(furniture, regions)
 
 
@@ -160,6 +206,7 @@ class ObjectSpec:
     receptacle_capacity: int | None = None  # a bowl holds this many objects
     cover: bool = False  # an upside-down basket: hides what is under it
     properties: frozenset[str] = field(default_factory=frozenset)  # e.g. {"dirty"}
+    looks_like: str | None = None  # a lookalike: a detector may take it for this object
 
 
 def default_objects() -> dict[str, ObjectSpec]:
@@ -171,4 +218,7 @@ def default_objects() -> dict[str, ObjectSpec]:
         "black_cube": ObjectSpec("black_cube", 0.03),
         "bowl": ObjectSpec("bowl", 0.09, receptacle_capacity=1),
         "basket": ObjectSpec("basket", 0.16, cover=True),
+        "box": ObjectSpec("box", 0.15),  # a crate: put on the floor, it blocks doors
+        "plate": ObjectSpec("plate", 0.09),
+        "red_apple": ObjectSpec("red_apple", 0.05, looks_like="apple"),
     }

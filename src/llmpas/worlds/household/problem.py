@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 
 from llmpas.execution.context import Belief
-from llmpas.language.logic import Atom, Formula
-from llmpas.language.problem import Problem
+from llmpas.language.logic import Atom, Formula, atoms_of
+from llmpas.language.problem import Problem, parse_formula
 from llmpas.worlds.household.layout import Layout, ObjectSpec
 from llmpas.worlds.household.streams import DEFAULT_DEFERRED, make_streams
 from llmpas.worlds.household.values import BaseConf, Placement
@@ -27,6 +27,10 @@ PROPERTY_PREDICATE = {
     "cooked": "Cooked",
     "heated": "Heated",
     "cooled": "Cooled",
+    "hot": "Hot",
+    "wet": "Wet",
+    "broken": "Broken",
+    "spilled": "Spilled",
 }
 
 
@@ -41,10 +45,17 @@ class Household:
     layout: Layout
     objects: Mapping[str, ObjectSpec]
 
-    def search_places(self) -> tuple[str, ...]:
-        """Where the robot can look for an object: table parts, drawers, covers."""
+    def search_places(self, containers: bool = False) -> tuple[str, ...]:
+        """Where the robot can look for an object: table parts (and the floor), drawers,
+        covers; with ``containers``, the other closed containers (fridge, microwave) too, which
+        ``scan_container`` opens and looks into. (Without them by default: the list is quoted
+        in recorded prompts.)"""
         regions = [
-            r.name for r in self.layout.regions.values() if r.kind == "surface" or is_drawer(r.name)
+            r.name
+            for r in self.layout.regions.values()
+            if r.kind == "surface"
+            or is_drawer(r.name)
+            or (containers and r.kind == "container" and r.openable)
         ]
         return (*regions, *sorted(o for o, s in self.objects.items() if s.cover))
 
@@ -95,8 +106,11 @@ def initial_belief(
     base: BaseConf,
     open_regions: Iterable[str] = (),
     properties: Mapping[str, Collection[str]] | None = None,
+    searched: Iterable[str] = (),
+    jammed: Iterable[str] = (),
 ) -> Belief:
-    """The robot's belief at the start: where it thinks objects are, what is open, its base."""
+    """The robot's belief at the start: where it thinks objects are, what is open, its base,
+    the places it has already searched (``(scanned P)``) and the doors it knows are jammed."""
     belief = Belief(house.static_facts(), {})
     for obj, place in places.items():
         believe_at(belief, obj, place)
@@ -110,7 +124,51 @@ def initial_belief(
     belief.facts |= {Atom("open", (r,)) for r in open_regions}
     for obj, props in (properties or {}).items():
         belief.facts |= {Atom(PROPERTY_PREDICATE[p].lower(), (obj,)) for p in props}
+    belief.facts |= {Atom("scanned", (p,)) for p in searched}
+    belief.facts |= {Atom("jammed", (r,)) for r in jammed}
     return belief
+
+
+def capacity_facts(house: Household, belief: Belief) -> set[Atom]:
+    """``(double R)`` for a region that holds two objects and is believed to hold one already.
+
+    A region believed empty is planned without its limit: a plan puts at most one object into
+    one place in the tasks here, and leaving the fact out keeps the search (and so the plans) of
+    problems where no such region is in use exactly as they were. A place believed half full is
+    planned with its limit: after one more object it is full."""
+    out: set[Atom] = set()
+    at = {a.args for a in belief.facts if a.predicate == "atpose"}
+    for r in house.layout.regions.values():
+        if r.capacity != 2:
+            continue
+        count = sum(
+            1
+            for a in belief.facts
+            if a.predicate == "supported" and a.args[2] == r.name and a.args[:2] in at
+        )
+        if count >= 1:
+            out.add(Atom.of("Double", r.name))
+    return out
+
+
+def blocking_facts(house: Household, belief: Belief) -> set[Atom]:
+    """``(blocks P R)`` for every believed pose P on the floor in front of door R."""
+    out: set[Atom] = set()
+    fronts = [r.name for r in house.layout.regions.values() if r.front is not None]
+    for a in belief.facts:
+        if a.predicate != "atpose":
+            continue
+        obj, p = a.args
+        place = belief.values.get(p)
+        spec = house.objects.get(obj)
+        if not isinstance(place, Placement) or spec is None:
+            continue
+        if not house.layout.on_floor(place.region):
+            continue  # only what stands on the floor blocks a door
+        for r in fronts:
+            if house.layout.blocked_by(r, place.x, place.y, spec.radius):
+                out.add(Atom("blocks", (p, r)))
+    return out
 
 
 def make_problem(
@@ -121,14 +179,16 @@ def make_problem(
     deferred: Collection[str] = DEFAULT_DEFERRED,
 ) -> Problem:
     """The planning problem from the believed state."""
-    facts = set(belief.facts)
+    domain = load_domain()
+    facts = set(belief.facts) | capacity_facts(house, belief) | blocking_facts(house, belief)
+    facts |= search_facts(house, goal if not isinstance(goal, str) else parse_formula(goal, domain))
     used = {t for a in facts for t in a.args}
     values: dict[str, Any] = {n: v for n, v in belief.values.items() if n in used}
     streams = make_streams(
         house.layout, house.objects, lambda o: believed_place(belief, o), rng, deferred
     )
     return Problem.create(
-        load_domain(),
+        domain,
         load_streams(),
         init=sorted(facts),
         goal=goal,
@@ -136,3 +196,19 @@ def make_problem(
         objects=values,
         name="household",
     )
+
+
+def search_facts(house: Household, goal: Formula) -> set[Atom]:
+    """``(searched C)`` for the closed containers (fridge, microwave) the goal asks to scan.
+
+    ``Scanned`` is in no precondition, so ``scan_container`` is relevant only to such a goal;
+    leaving it out of other problems keeps their search exactly as it was before the action
+    existed."""
+    containers = {
+        r.name for r in house.layout.regions.values() if r.openable and not is_drawer(r.name)
+    }
+    return {
+        Atom("searched", a.args)
+        for a in atoms_of(goal)
+        if a.predicate == "scanned" and a.args[0] in containers
+    }

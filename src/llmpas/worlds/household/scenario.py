@@ -14,6 +14,17 @@ Format (every table and field is checked; unknown fields are errors)::
     miss_prob = 0.05                    # probability that a visible object is not detected
     slip_prob = 0.0                     # probability that a grasp which would succeed slips
 
+    [[noise.confuse]]                   # optional: the detector takes a lookalike for another
+    object = "red_apple"                #   object: every detection of red_apple is reported as
+    as = "apple"                        #   apple (with probability prob, default 1); grasping
+    prob = 1.0                          #   "apple" there takes the red_apple
+
+    [house]                             # optional: the house beyond the default kitchen
+    floor = true                        # the open floor is a region ("floor"): things lie there,
+                                        #   and one standing in front of a door blocks it
+    jammed = ["drawer2"]                # doors that do not open (the robot does not know it
+                                        #   unless [belief] jammed says so)
+
     [[noise.displace]]                  # optional: tolerable disturbances (recoverable by
     kind = "slip"                       #   resampling): the Nth grasp that would otherwise
     attempt = 1                         #   succeed slips (here: the first)
@@ -30,8 +41,12 @@ Format (every table and field is checked; unknown fields are errors)::
     region = "table1_right"             # a layout region, or a receptacle object ("bowl")
     x = 1.8                             # m; the whole footprint must lie in the region
     y = 4.45
-    properties = ["dirty"]              # optional: dirty, cleaned, cooked, heated, cooled
-                                        #   (default: the catalogue's properties)
+    properties = ["dirty"]              # optional: dirty, cleaned, cooked, heated, cooled, hot,
+                                        #   wet, broken, spilled (default: the catalogue's)
+                                        #   cooked: not cooked again; hot: not into the fridge
+                                        #   (rinse it in the sink); spilled: rinse before heating;
+                                        #   wet: dry it on a table before a drawer; broken: it
+                                        #   cannot be picked up. hot is not visible.
     # instead of region/x/y:
     # under = "basket"                  # hidden under a cover; region and x, y default to the
     #                                   #   cover's (x, y must stay within the cover's rim)
@@ -55,6 +70,8 @@ Format (every table and field is checked; unknown fields are errors)::
                                         #   absent = true: the robot does not know of it at all
     [belief.open]                       # override what the robot believes is open
     drawer2 = false
+    # in [belief]: searched = ["table1_left", "drawer1"]   places already searched (in vain)
+    #              jammed = ["drawer2"]                    doors the robot knows are jammed
 
     [task]
     goal = "(and (On cube bowl))"       # PDDL text; predicates On/2, Holding/1, Scanned/1,
@@ -150,12 +167,28 @@ class Disturbance:
 
 
 @dataclass(frozen=True)
+class Confusion:
+    """The detector reports ``object`` as ``seen_as`` (a lookalike), with probability ``prob``."""
+
+    object: str
+    seen_as: str
+    prob: float = 1.0
+
+    def __post_init__(self) -> None:
+        if self.object == self.seen_as:
+            raise ValueError(f"{self.object} cannot be confused with itself")
+        if not 0.0 <= self.prob <= 1.0:
+            raise ValueError(f"prob must be in [0, 1], got {self.prob}")
+
+
+@dataclass(frozen=True)
 class Noise:
     pose_sigma: float = 0.0
     base_sigma: float = 0.0
     miss_prob: float = 0.0
     slip_prob: float = 0.0
     displace: tuple[Disturbance, ...] = ()
+    confuse: tuple[Confusion, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -188,6 +221,8 @@ class InitialBelief:
 
     objects: tuple[BeliefObject, ...]
     open: Mapping[str, bool]
+    searched: tuple[str, ...] = ()  # places already searched before the anomaly
+    jammed: tuple[str, ...] = ()  # doors the robot knows do not open
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "open", MappingProxyType(dict(self.open)))
@@ -255,6 +290,8 @@ class Scenario:
     events: tuple[Event, ...] = ()
     specs: Mapping[str, ObjectSpec] = field(default_factory=dict)  # objects that can exist
     source: str = "<scenario>"
+    layout: Layout = field(default_factory=kitchen, repr=False)  # with a floor if [house] says
+    jammed: tuple[str, ...] = ()  # doors that do not open
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "open", MappingProxyType(dict(self.open)))
@@ -270,7 +307,9 @@ class Scenario:
         catalogue: Mapping[str, ObjectSpec] | None = None,
     ) -> Scenario:
         """Check and build a scenario from parsed TOML (``source`` names it in errors)."""
-        parser = _Parser(source, layout or kitchen(), catalogue or default_objects())
+        house = data.get("house", {}) if isinstance(data, Mapping) else {}
+        floor = isinstance(house, Mapping) and house.get("floor") is True
+        parser = _Parser(source, layout or kitchen(floor=floor), catalogue or default_objects())
         return parser.scenario(data)
 
     def object(self, name: str) -> ObjectInit:
@@ -285,9 +324,10 @@ class Scenario:
 
     def initial_state(self, layout: Layout | None = None) -> TrueState:
         """A fresh TrueState of the initial situation."""
-        state = TrueState(layout or kitchen(), self.specs, self.robot)
+        state = TrueState(layout or self.layout, self.specs, self.robot)
         _fill(state, self.objects)
         state.open.update(self.open)
+        state.jammed.update(self.jammed)
         return state
 
 
@@ -441,6 +481,7 @@ class _Parser:
                 "belief",
                 "task",
                 "events",
+                "house",
             ),
         )
         for key in ("name", "objects", "task"):
@@ -470,7 +511,11 @@ class _Parser:
             for r in resolved
             if r.placement is not None
         )
+        jammed = self.house(top.get("house", {}))
         open_ = self.open_table(top.get("open", {}), "open")
+        for r in jammed:
+            if open_[r]:
+                raise self.fail("house.jammed", f"{r} is jammed: it cannot be open")
         robot = self.robot(top.get("robot", {}))
         belief = self.belief(top.get("belief", {}), entries, specs, open_)
         noise = self.noise(top.get("noise", {}), names)
@@ -489,7 +534,39 @@ class _Parser:
             events=events,
             specs=specs,
             source=self.source,
+            layout=self.layout,
+            jammed=jammed,
         )
+
+    def house(self, value: Any) -> tuple[str, ...]:
+        t = self.table(value, "house", ("floor", "jammed"))
+        self.boolean(t.get("floor", False), "house.floor")  # read before parsing (the layout)
+        return self.containers(t.get("jammed", []), "house.jammed")
+
+    def containers(self, value: Any, where: str) -> tuple[str, ...]:
+        openable = sorted(n for n, r in self.layout.regions.items() if r.openable)
+        out: list[str] = []
+        for i, raw in enumerate(self.array(value, where)):
+            name = self.string(raw, f"{where}[{i}]")
+            if name not in openable:
+                raise self.fail(
+                    f"{where}[{i}]", f"{name!r} is not a door; containers: {_names(openable)}"
+                )
+            if name not in out:
+                out.append(name)
+        return tuple(out)
+
+    def places(self, value: Any, where: str, covers: tuple[str, ...]) -> tuple[str, ...]:
+        drawers = [n for n, r in self.layout.regions.items() if r.kind != "receptacle"]
+        known = {*drawers, *covers}
+        out: list[str] = []
+        for i, raw in enumerate(self.array(value, where)):
+            name = self.string(raw, f"{where}[{i}]")
+            if name not in known:
+                raise self.fail(f"{where}[{i}]", f"unknown place {name!r}; places: {_names(known)}")
+            if name not in out:
+                out.append(name)
+        return tuple(out)
 
     def object_names(self, entries: list[tuple[str, Mapping[str, Any]]]) -> tuple[str, ...]:
         names: list[str] = []
@@ -735,7 +812,10 @@ class _Parser:
         specs: Mapping[str, ObjectSpec],
         open_: Mapping[str, bool],
     ) -> InitialBelief:
-        t = self.table(value, "belief", ("objects", "open"))
+        t = self.table(value, "belief", ("objects", "open", "searched", "jammed"))
+        covers = tuple(n for n, s in specs.items() if s.cover)
+        searched = self.places(t.get("searched", []), "belief.searched", covers)
+        jammed = self.containers(t.get("jammed", []), "belief.jammed")
         overrides: dict[str, tuple[str, Mapping[str, Any]]] = {}
         truth_names = [str(e["name"]) for _, e in entries]
         for i, raw in enumerate(self.array(t.get("objects", []), "belief.objects")):
@@ -771,13 +851,17 @@ class _Parser:
         believed_open = dict(open_)
         overridden = self.open_table(t.get("open", {}), "belief.open")
         believed_open.update({k: overridden[k] for k in t.get("open", {})})
-        return InitialBelief(tuple(objects), believed_open)
+        return InitialBelief(tuple(objects), believed_open, searched, jammed)
 
     # -------------------------------------------------------------------------------- noise
 
     def noise(self, value: Any, names: tuple[str, ...]) -> Noise:
-        fields = ("pose_sigma", "base_sigma", "miss_prob", "slip_prob", "displace")
+        fields = ("pose_sigma", "base_sigma", "miss_prob", "slip_prob", "displace", "confuse")
         t = self.table(value, "noise", fields)
+        confuse = tuple(
+            self.confusion(c, f"noise.confuse[{i}]", names)
+            for i, c in enumerate(self.array(t.get("confuse", []), "noise.confuse"))
+        )
         displace = tuple(
             self.disturbance(d, f"noise.displace[{i}]", names)
             for i, d in enumerate(self.array(t.get("displace", []), "noise.displace"))
@@ -788,7 +872,20 @@ class _Parser:
             miss_prob=self.probability(t.get("miss_prob", 0.0), "noise.miss_prob"),
             slip_prob=self.probability(t.get("slip_prob", 0.0), "noise.slip_prob"),
             displace=displace,
+            confuse=confuse,
         )
+
+    def confusion(self, value: Any, where: str, names: tuple[str, ...]) -> Confusion:
+        t = self.table(value, where, ("object", "as", "prob"))
+        for key in ("object", "as"):
+            if key not in t:
+                raise self.fail(f"{where}.{key}", "missing (required)")
+        obj = self.scenario_object(t["object"], f"{where}.object", names)
+        seen_as = self.catalogue_object(t["as"], f"{where}.as")
+        if seen_as == obj:
+            raise self.fail(f"{where}.as", f"{obj} cannot be taken for itself")
+        prob = self.probability(t.get("prob", 1.0), f"{where}.prob")
+        return Confusion(obj, seen_as, prob)
 
     def disturbance(self, value: Any, where: str, names: tuple[str, ...]) -> Disturbance:
         if not isinstance(value, Mapping):

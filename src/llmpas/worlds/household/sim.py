@@ -13,7 +13,9 @@ Failed skills return a :class:`SkillResult` whose message says why and whose ``d
 is a short code: ``blocked``, ``bad_value``, ``out_of_reach``, ``hand_full``, ``not_held``,
 ``arm_not_ready``, ``nothing_there``, ``closed``, ``covered``, ``slipped``, ``not_region``,
 ``occupied``, ``outside``, ``overlap``, ``not_openable``, ``cannot_process``, ``not_in``,
-``open``, ``dirty``.
+``open``, ``jammed``, ``obstructed``, ``broken``, ``wet``, and an object state that blocks a
+process (``dirty``, ``hot``, ``cooked``, ``spilled``). A detector may take a lookalike for the
+object it resembles (``[[noise.confuse]]``); grasping what it saw then takes the lookalike.
 """
 
 from __future__ import annotations
@@ -30,8 +32,10 @@ from llmpas.execution.world import Detection, Observation, SkillResult
 from llmpas.worlds.household.layout import Layout, kitchen
 from llmpas.worlds.household.scenario import Disturbance, Event, Scenario
 from llmpas.worlds.household.state import (
+    BLOCKING,
     PROCESS_EFFECTS,
-    PROPERTIES,
+    PROCESS_REMOVES,
+    VISIBLE,
     TrueState,
     base_collision,
     point_rect_distance,
@@ -42,6 +46,9 @@ from llmpas.worlds.household.values import ArmTarget, BaseConf, Grasp, Motion, P
 GRASP_TOLERANCE = 0.03
 """How far (m, plus the object's radius) the gripper may be from an object to grasp it, or from
 a placement to release there."""
+
+CONFUSED = 0.9
+"""The confidence of a detection that took a lookalike for another object (below a true one's)."""
 
 PATH_TOLERANCE = 0.005
 """How much closer than ``robot_radius`` (m) a drive may graze furniture (discretised planners)."""
@@ -253,15 +260,26 @@ class HouseholdWorld:
                 dx, dy = (
                     self.rng.normal(0.0, noise.pose_sigma, 2) if noise.pose_sigma > 0 else (0, 0)
                 )
-                props = frozenset(t.properties.get(obj, set()) & PROPERTIES)
+                props = frozenset(t.properties.get(obj, set()) & VISIBLE)
                 pose = Placement(r, float(p.x + dx), float(p.y + dy))
-                detections.append(Detection(obj, r, pose, 1.0, props))
+                seen_as = self._confused(obj)
+                if seen_as is None:
+                    detections.append(Detection(obj, r, pose, 1.0, props))
+                else:  # a lookalike taken for the object it resembles
+                    detections.append(Detection(seen_as, r, pose, CONFUSED, props))
         obs = Observation(tuple(viewed), tuple(detections))
         seen = ", ".join(f"{d.obj}@{d.region}" for d in detections) or "nothing"
         self._record(
             "look", (target,), True, f"viewed {', '.join(viewed) or 'nothing'}; saw {seen}"
         )
         return obs
+
+    def _confused(self, obj: str) -> str | None:
+        """The object the detector takes ``obj`` for (None: it sees ``obj``)."""
+        for c in self.scenario.noise.confuse:
+            if c.object == obj and (c.prob >= 1.0 or self.rng.random() < c.prob):
+                return c.seen_as
+        return None
 
     def _aim(self, target: str) -> tuple[list[str], tuple[float, float]]:
         """The regions a look at ``target`` covers, and the point the camera turns to."""
@@ -326,7 +344,7 @@ class HouseholdWorld:
         points = [(start.x, start.y), *((q.x, q.y) for q in path)]
         radius = self.layout.robot_radius
         for (ax, ay), (bx, by) in itertools.pairwise(points):
-            for f in self.layout.furniture.values():
+            for f in self.layout.solid():
                 clearance = min(radius, point_rect_distance(ax, ay, f.rect))
                 if segment_rect_distance(ax, ay, bx, by, f.rect) < clearance - PATH_TOLERANCE:
                     return _fail("blocked", f"path blocked by {f.name}")
@@ -368,6 +386,7 @@ class HouseholdWorld:
 
     def _grasp(self, obj: str, grasp: Any) -> SkillResult:
         t = self.truth
+        asked = obj
         if not isinstance(grasp, Grasp):
             return _fail("bad_value", f"not a grasp: {grasp!r}")
         if t.held is not None:
@@ -376,7 +395,12 @@ class HouseholdWorld:
             return _fail("arm_not_ready", "the gripper is not at a grasp position")
         pos = t.position(obj) if obj in t.specs else None
         if pos is None or not self._gripper_near(*pos, t.radius(obj)):
-            return _fail("nothing_there", "nothing to grasp at the target")
+            lookalike = self._lookalike_at(obj)
+            if lookalike is None:
+                return _fail("nothing_there", "nothing to grasp at the target")
+            obj = lookalike  # the gripper closes on what is there
+        if "broken" in t.properties.get(obj, set()):
+            return _fail("broken", f"{obj} is broken: its pieces cannot be picked up")
         region = t.placements[obj].region
         why = t.inaccessible_reason(region)
         if why is not None:
@@ -395,7 +419,18 @@ class HouseholdWorld:
             )
             return _fail("slipped", "the object slipped")
         t.take(obj)
-        return SkillResult.success(f"holding {obj}")
+        return SkillResult.success(f"holding {asked}")  # the robot cannot tell a lookalike
+
+    def _lookalike_at(self, obj: str) -> str | None:
+        """A lookalike of ``obj`` under the gripper (a detector may have taken it for ``obj``)."""
+        t = self.truth
+        for other in t.objects:
+            if t.spec(other).looks_like != obj and t.spec(obj).looks_like != other:
+                continue
+            pos = t.position(other)
+            if pos is not None and self._gripper_near(*pos, t.radius(other)):
+                return other
+        return None
 
     def release(self, obj: str, pose: Any) -> SkillResult:
         return self._finish("release", (obj, pose), self._release(obj, pose))
@@ -426,6 +461,8 @@ class HouseholdWorld:
             return _fail("closed" if why.endswith("closed") else "covered", why)
         if t.occupied(region):
             return _fail("occupied", f"{region} is occupied by {', '.join(t.objects_in(region))}")
+        if "wet" in t.properties.get(obj, set()) and region.startswith("drawer"):
+            return _fail("wet", f"{obj} is wet: it would soak {region}")
         if not t.fits(region, place.x, place.y, radius):
             return _fail("outside", f"{obj} does not fit at {place}: outside {region}")
         hits = t.overlapping(region, place.x, place.y, radius)
@@ -464,6 +501,15 @@ class HouseholdWorld:
         self.arm_target = None
         if t.open.get(container, False) == value:
             return SkillResult.success(f"{container} is already {word}")
+        if value and container in t.jammed:
+            return _fail("jammed", f"{container} is jammed: it does not open")
+        blockers = t.blockers(container) if value else ()
+        if blockers:
+            return SkillResult.failure(
+                f"{container} is blocked by {', '.join(blockers)} standing in front of it",
+                reason="obstructed",
+                blockers=blockers,
+            )
         t.open[container] = value
         return SkillResult.success(f"{container} is {word}")
 
@@ -473,9 +519,11 @@ class HouseholdWorld:
     def _process(self, obj: str, appliance: str, how: str) -> SkillResult:
         t = self.truth
         region = self.layout.regions.get(appliance)
-        if region is None or region.process is None:
+        if how == "dry" and region is not None and region.kind == "surface":
+            pass  # anything can be wiped dry on a table
+        elif region is None or region.process is None:
             return _fail("cannot_process", f"{appliance} cannot {how} anything")
-        if how != region.process:
+        elif how != region.process:
             return _fail("cannot_process", f"{appliance} cannot {how} (it can {region.process})")
         place = t.placements.get(obj)
         if place is None or place.region != appliance or t.carried(obj):
@@ -483,9 +531,11 @@ class HouseholdWorld:
         if region.openable and t.open.get(appliance, False):
             return _fail("open", f"{appliance} is open")
         props = t.properties.setdefault(obj, set())
-        if how == "cool" and "dirty" in props:
-            return _fail("dirty", f"{obj} is dirty: only clean things can be cooled")
-        if how == "clean":
-            props.discard("dirty")
-        props.add(PROCESS_EFFECTS[how])
-        return SkillResult.success(f"{obj} is {PROCESS_EFFECTS[how]}")
+        for state, why in BLOCKING.get(how, {}).items():
+            if state in props:
+                return _fail(state, f"{obj} is {state}: {why}")
+        props -= PROCESS_REMOVES.get(how, frozenset())
+        if how in PROCESS_EFFECTS:
+            props.add(PROCESS_EFFECTS[how])
+            return SkillResult.success(f"{obj} is {PROCESS_EFFECTS[how]}")
+        return SkillResult.success(f"{obj} is dry")

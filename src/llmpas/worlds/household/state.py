@@ -22,13 +22,40 @@ from types import MappingProxyType
 from llmpas.worlds.household.layout import Layout, ObjectSpec, Rect
 from llmpas.worlds.household.values import BaseConf, Placement
 
-PROPERTIES = frozenset({"dirty", "cleaned", "cooked", "heated", "cooled"})
-"""The object states the world knows (all of them are visible)."""
+PROPERTIES = frozenset(
+    {"dirty", "cleaned", "cooked", "heated", "cooled", "hot", "wet", "broken", "spilled"}
+)
+"""The object states the world knows."""
+
+VISIBLE = PROPERTIES - {"hot"}
+"""The states a camera sees (heat shows only when a skill fails because of it)."""
 
 PROCESS_EFFECTS: Mapping[str, str] = MappingProxyType(
     {"clean": "cleaned", "cook": "cooked", "heat": "heated", "cool": "cooled"}
 )
-"""What each appliance process adds to the object's properties (clean also removes dirty)."""
+"""What each appliance process adds to the object's properties."""
+
+PROCESS_REMOVES: Mapping[str, frozenset[str]] = MappingProxyType(
+    {
+        "clean": frozenset({"dirty", "hot", "spilled"}),  # rinsed under cold water
+        "dry": frozenset({"wet"}),  # wiped dry on a table
+    }
+)
+"""What a process takes away from the object's properties."""
+
+BLOCKING: Mapping[str, Mapping[str, str]] = MappingProxyType(
+    {
+        "cook": MappingProxyType({"cooked": "it is already cooked: cooking again burns it"}),
+        "cool": MappingProxyType(
+            {
+                "dirty": "only clean things can be cooled",
+                "hot": "hot food must cool down before it goes into the fridge",
+            }
+        ),
+        "heat": MappingProxyType({"spilled": "spilled food must be rinsed before heating"}),
+    }
+)
+"""Process -> object state that makes it fail -> why (the failure's reason is the state)."""
 
 EPS = 1e-9
 
@@ -87,7 +114,7 @@ def base_collision(layout: Layout, x: float, y: float) -> str | None:
     width, height = layout.size
     if not (r - EPS <= x <= width - r + EPS and r - EPS <= y <= height - r + EPS):
         return "the wall"
-    for f in layout.furniture.values():
+    for f in layout.solid():
         if point_rect_distance(x, y, f.rect) < r - EPS:
             return f.name
     return None
@@ -107,6 +134,7 @@ class StateSnapshot:
     open: Mapping[str, bool]
     properties: Mapping[str, frozenset[str]]
     base: BaseConf
+    jammed: frozenset[str] = frozenset()
 
     def region_of(self, obj: str) -> str | None:
         """The region ``obj`` rests in (None when held or unknown)."""
@@ -145,6 +173,7 @@ class TrueState:
     open: dict[str, bool] = field(default_factory=dict)
     properties: dict[str, set[str]] = field(default_factory=dict)
     held_from: Placement | None = None  # where the held object was taken from
+    jammed: set[str] = field(default_factory=set)  # doors that do not open
 
     def __post_init__(self) -> None:
         for name, region in self.layout.regions.items():
@@ -352,4 +381,15 @@ class TrueState:
             open=MappingProxyType(dict(self.open)),
             properties=MappingProxyType({o: frozenset(p) for o, p in self.properties.items()}),
             base=self.base,
+            jammed=frozenset(self.jammed),
+        )
+
+    def blockers(self, region: str) -> tuple[str, ...]:
+        """The objects standing on the floor in front of ``region``'s door."""
+        return tuple(
+            o
+            for o, p in sorted(self.placements.items())
+            if self.layout.on_floor(p.region)
+            and not self.carried(o)
+            and self.layout.blocked_by(region, p.x, p.y, self.radius(o))
         )

@@ -35,9 +35,14 @@ def pose_sampler(
         m = objects[o].radius + 0.02
         if x1 - x0 <= 2 * m or y1 - y0 <= 2 * m:
             return
+        doors = [d.name for d in layout.regions.values() if d.front is not None]
+        floor = layout.on_floor(r)
         while True:
             x, y = rng.uniform(x0 + m, x1 - m), rng.uniform(y0 + m, y1 - m)
-            yield (Placement(r, round(float(x), 3), round(float(y), 3)),)
+            x, y = round(float(x), 3), round(float(y), 3)
+            if floor and any(layout.blocked_by(d, x, y, objects[o].radius) for d in doors):
+                continue  # never put anything down in front of a door
+            yield (Placement(r, x, y),)
 
     return sample_pose
 
