@@ -34,7 +34,7 @@ from llmpas.files import atomic_write
 from llmpas.language.logic import And, Atom, Formula, Not, atoms_of
 from llmpas.language.problem import Problem, parse_formula
 from llmpas.language.semantics import Semantics
-from llmpas.planning import PlanResult, solve
+from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, solve
 from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal
 from llmpas.reasoning.llm import LLM, LLMError, Request, Response
 from llmpas.reasoning.methods import MethodConfig, Proposal, propose, rejected
@@ -155,6 +155,7 @@ class LoopResult:
         return atomic_write(path, json.dumps(self.to_json(), indent=2))
 
 
+UNJUDGED = (PlanStatus.TIMEOUT, PlanStatus.CRASHED, PlanStatus.ERROR)  # no verdict
 OnRound = Callable[["LoopResult"], object]  # gets the record so far after every step
 LLMFor = Callable[[Any], LLM]  # a backend built on the world's session (a labelled oracle)
 
@@ -162,7 +163,21 @@ LLMFor = Callable[[Any], LLM]  # a backend built on the world's session (a label
 def plan(session: Session, goal: Formula | str, index: int) -> tuple[PlanResult, Problem]:
     """Plan ``goal`` from the session's current belief (round ``index``)."""
     problem = session.problem(goal, index)
-    return solve(problem, session.planner), problem
+    return solve(problem, counted(session.planner)), problem
+
+
+def counted(config: PlannerConfig) -> PlannerConfig:
+    """The world's planner with counted limits, so that a verdict (a goal reachable or not) is
+    the same on any machine and recorded answers replay exactly; its time limits stay, as
+    safety nets (their expiry is ``timeout``, never ``unsolvable``)."""
+    if config.deterministic:
+        return config
+    preset = PlannerConfig.validation()
+    return replace(
+        config,
+        max_stream_calls=preset.max_stream_calls,
+        max_empty_samples=preset.max_empty_samples,
+    )
 
 
 def execute(
@@ -184,7 +199,8 @@ class _Loop:
     max_rounds: int
     rounds: list[Round] = field(default_factory=list)
     report: AnomalyReport | None = None
-    tried: list[frozenset[str]] = field(default_factory=list)
+    tried: list[frozenset[str]] = field(default_factory=list)  # achieved, did not help
+    pending: frozenset[str] | None = None  # the goals being pursued
     searched: dict[str, set[str]] = field(default_factory=dict)
     plans: dict[tuple[str, int], tuple[PlanResult, Any]] = field(default_factory=dict)
     llm_time: float = 0.0
@@ -213,6 +229,8 @@ class _Loop:
             if ep is not None and ep.succeeded:
                 if text == task or self.task_holds():
                     return self.end(self.task_holds(), "the task is done")
+                if self.pending is not None:  # achieved; if the task fails again, it did not help
+                    self.tried.append(self.pending)
                 self.searched_in(rnd)
                 goal, text = task, task  # recovered: back to the task
                 continue
@@ -223,6 +241,8 @@ class _Loop:
                 if report is None or text != task or asked >= self.max_rounds:
                     return self.end(False, f"no plan for {text}: {rnd.plan.message}")
             else:
+                if ep.anomaly is not None and self.task_holds():
+                    return self.end(True, f"the task holds: {ep.anomaly.describe()}")
                 if ep.anomaly is None or asked >= self.max_rounds:
                     return self.end(False, ep.message or "out of LLM rounds")
                 report = self.report = ep.anomaly
@@ -240,7 +260,8 @@ class _Loop:
             if not proposal.ok:
                 errors = "; ".join(proposal.parse.errors)
                 return self.end(False, "the LLM gave no usable goals: " + errors)
-            self.tried.append(frozenset(map(str, proposal.goals)))
+            # goals whose execution fails are not blamed: only achieved ones count as tried
+            self.pending = frozenset(map(str, proposal.goals))
             goal, text = self.next_goal(proposal)
         return self.end(False, f"not done after {self.max_rounds} LLM rounds")
 
@@ -422,6 +443,10 @@ class _Loop:
             return parse
         ok = [g for g in goals if self.plan(And((g,)))[0].solved]
         bad = [g for g in goals if g not in ok]
+        unjudged = [g for g in bad if self.plan(And((g,)))[0].status in UNJUDGED]
+        if unjudged:  # a safety net fired: no verdict, and not "unreachable"
+            why = [f"{g}: not judged: {self.plan(And((g,)))[0].message}" for g in unjudged]
+            return rejected(parse, GoalStatus.UNREACHABLE, why, unjudged)
         if not ok:
             return rejected(
                 parse,

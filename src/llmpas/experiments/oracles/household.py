@@ -4,7 +4,8 @@ computed from the simulator's TRUE state."""
 from __future__ import annotations
 
 from llmpas.experiments.oracles import answer, failed_literal, first_look
-from llmpas.language.logic import Atom, Formula, Not
+from llmpas.language.logic import Atom, Formula, Not, atoms_of
+from llmpas.language.problem import parse_formula
 from llmpas.reasoning.llm import Request, Response
 from llmpas.worlds.household.plugin import HouseholdSession
 from llmpas.worlds.household.sim import HouseholdWorld
@@ -15,8 +16,9 @@ class Oracle:
 
     name = "oracle"
 
-    def __init__(self, world: HouseholdWorld) -> None:
+    def __init__(self, world: HouseholdWorld, task: tuple[Atom, ...] = ()) -> None:
         self.world = world
+        self.task = task  # the task's atoms (what was to go where)
 
     def complete(self, request: Request) -> Response:
         c = failed_literal(request)
@@ -26,12 +28,40 @@ class Oracle:
         atom = c.arg if isinstance(c, Not) else c
         if not isinstance(atom, Atom):
             return []
-        if atom.predicate == "on" and not isinstance(c, Not):
+        negated = isinstance(c, Not)
+        if atom.predicate in ("on", "atgrasp") and not negated:  # not where / not what it was
             return [self._find(atom.args[0])]
+        if atom.predicate == "open" and not negated:  # a closed drawer, where it was believed open
+            return [atom]
         if atom.predicate == "full":
             return [self._clear(atom.args[0])]
-        if atom.predicate == "dirty":
+        if atom.predicate in ("dirty", "hot", "spilled"):
             return [Atom("cleaned", (atom.args[0],))]
+        if atom.predicate in ("wet", "soaks"):
+            return [Not(Atom("wet", (atom.args[0],)))]
+        if atom.predicate == "obstructed":  # the task again: the replan moves what blocks
+            return list(self.task)
+        if atom.predicate == "jammed":
+            return self._elsewhere(atom.args[0])
+        return []
+
+    def _elsewhere(self, jammed: str) -> list[Atom | Not]:
+        """What was to go into a jammed container goes into the first other one of its kind
+        that truly opens and has room."""
+        truth, layout = self.world.truth, self.world.layout
+        kind = layout.regions[jammed].kind
+        meant = [a.args[0] for a in self.task if a.predicate == "on" and a.args[1] == jammed]
+        obj = meant[0] if meant else truth.held
+        if obj is None:
+            return []
+        for name in sorted(layout.regions):
+            region = layout.regions[name]
+            if name == jammed or region.kind != kind or not region.openable:
+                continue
+            if obj in truth.objects_in(name):
+                continue
+            if name not in truth.jammed and len(truth.objects_in(name)) < 2:
+                return [Atom("on", (obj, name))]
         return []
 
     def _find(self, obj: str) -> Atom:
@@ -55,7 +85,8 @@ class Oracle:
 
 
 def oracle(session: HouseholdSession) -> Oracle:
-    return Oracle(session.sim)
+    task = atoms_of(parse_formula(session.task, session.domain))
+    return Oracle(session.sim, tuple(task))
 
 
 __all__ = ["Oracle", "oracle"]

@@ -27,7 +27,7 @@ from llmpas.reasoning.goals import Vocabulary
 from llmpas.reasoning.prompts import PromptTables
 from llmpas.worlds.api import RunOptions, believed_lost
 from llmpas.worlds.household.decomposition import ExplorationConfig, build_specs
-from llmpas.worlds.household.layout import Layout, kitchen
+from llmpas.worlds.household.layout import Layout
 from llmpas.worlds.household.problem import (
     Household,
     believed_place,
@@ -61,11 +61,16 @@ def belief_from(house: Household, scenario: Scenario) -> Belief:
     places = {b.name: b.placement for b in scenario.belief.objects}
     props = {b.name: b.properties for b in scenario.belief.objects if b.properties}
     opened = [r for r, is_open in scenario.belief.open.items() if is_open]
-    return initial_belief(house, places, scenario.robot, opened, props)
+    known = scenario.belief
+    return initial_belief(
+        house, places, scenario.robot, opened, props, known.searched, known.jammed
+    )
 
 
 def household_for(scenario: Scenario, layout: Layout | None = None) -> Household:
-    return Household(layout or kitchen(), dict(scenario.specs))
+    """The robot's static knowledge of the scenario's house (its layout: with a floor if the
+    scenario has one)."""
+    return Household(layout or scenario.layout, dict(scenario.specs))
 
 
 @dataclass(frozen=True)
@@ -79,7 +84,7 @@ class HouseholdSearch:
     detection: str = "Detected"
 
     def places(self) -> tuple[str, ...]:
-        return self.house.search_places()
+        return self.house.search_places(containers=True)
 
     def looked_at(self, report: AnomalyReport) -> tuple[str, ...]:
         """The places a failed detection looked at: its ``view`` alternatives."""

@@ -23,13 +23,22 @@ ACTIONS = {
     "scan_table": ("look at a table region and find what is on it", ("scanned",)),
     "scan_drawer": ("look into an open drawer", ("scanned",)),
     "scan_cover": ("lift a cover such as the upside-down basket and look under it", ("scanned",)),
-    "open": ("open a drawer, the microwave or the fridge", ("open",)),
+    "scan_container": ("open the fridge or the microwave first, then look inside", ("scanned",)),
+    "open": (
+        "open a drawer, the microwave or the fridge (not when jammed or obstructed)",
+        ("open",),
+    ),
     "close": ("close a drawer, the microwave or the fridge", ()),
-    "clean": ("clean an object that is in the sink", ("cleaned",)),
+    "clean": (
+        "clean an object that is in the sink (also cools a hot one and rinses a spilled one)",
+        ("cleaned",),
+    ),
     "cook": ("cook a clean object that is on the stove", ("cooked",)),
     "heat": ("heat an object in the closed microwave", ("heated",)),
     "cool": ("cool a clean object in the closed fridge", ("cooled",)),
+    "dry": ("wipe a wet object dry on a table region", ()),
 }
+STATES = ("dirty", "cleaned", "cooked", "heated", "cooled", "hot", "wet", "broken", "spilled")
 PREDICATES = {
     "on": ("?o ?r", "object ?o rests on or in region ?r (a table region, drawer, appliance, bowl)"),
     "holding": ("?o", "the robot holds object ?o"),
@@ -43,6 +52,10 @@ PREDICATES = {
     "cooked": ("?o", "object ?o has been cooked"),
     "heated": ("?o", "object ?o has been heated"),
     "cooled": ("?o", "object ?o has been cooled"),
+    "hot": ("?o", "object ?o is hot (it does not go into the fridge)"),
+    "spilled": ("?o", "object ?o is spilled over (it is rinsed before heating)"),
+    "wet": ("?o", "object ?o is wet (it is dried before it goes into a drawer)"),
+    "obstructed": ("?r", "something stands in front of the door of ?r"),
 }
 
 
@@ -53,12 +66,14 @@ PROGRAM_CALLS = MappingProxyType(
         "scan_table": Call(("region",), "scanned", (0,)),
         "scan_drawer": Call(("drawer",), "scanned", (0,)),
         "scan_cover": Call(("cover",), "scanned", (0,)),
+        "scan_container": Call(("container",), "scanned", (0,)),
         "open": Call(("container",), "open", (0,)),
         "close": Call(("container",), "open", (0,), negated=True),
         "clean": Call(("obj",), "cleaned", (0,)),
         "cook": Call(("obj",), "cooked", (0,)),
         "heat": Call(("obj",), "heated", (0,)),
         "cool": Call(("obj",), "cooled", (0,)),
+        "dry": Call(("obj",), "wet", (0,), negated=True),
     }
 )
 
@@ -81,6 +96,10 @@ def vocabulary(house: Household) -> Vocabulary:
             "cooked": (objects,),
             "heated": (objects,),
             "cooled": (objects,),
+            "hot": (objects,),
+            "spilled": (objects,),
+            "wet": (objects,),
+            "obstructed": (openable,),
         }
     )
 
@@ -96,10 +115,7 @@ def environment(house: Household, belief: Belief) -> str:
         place = believed_place(belief, obj)
         held = bool(belief.matching("atgrasp", obj))
         props = sorted(
-            a.predicate
-            for a in belief.facts
-            if a.args == (obj,)
-            and a.predicate in ("dirty", "cleaned", "cooked", "heated", "cooled")
+            a.predicate for a in belief.facts if a.args == (obj,) and a.predicate in STATES
         )
         where = (
             "held by the robot" if held else f"on {place.region}" if place else "location unknown"
@@ -112,6 +128,9 @@ def environment(house: Household, belief: Belief) -> str:
         r.name for r in house.layout.regions.values() if r.openable and r.name not in opened
     )
     lines.append(f"- open: {', '.join(opened) or 'nothing'}; closed: {', '.join(closed)}")
+    jammed = sorted(a.args[0] for a in belief.facts if a.predicate == "jammed")
+    if jammed:
+        lines.append(f"- jammed (do not open): {', '.join(jammed)}")
     regions = ", ".join(sorted(house.layout.regions))
     lines.append(
         f"- regions: {regions}; covers: "
