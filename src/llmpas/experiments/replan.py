@@ -73,6 +73,8 @@ class Replan:
         lines = []
         for lit in self.literals:
             atom = lit.arg if isinstance(lit, Not) else lit
+            if not isinstance(atom, Atom):
+                continue
             for name, call in calls.items():
                 if call.predicate != atom.predicate or call.negated != isinstance(lit, Not):
                     continue
