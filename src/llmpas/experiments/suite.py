@@ -15,7 +15,7 @@ belief that differs from the truth) — plus one extra table that the scenario p
                                     #   On/2, Holding/1, Open/1, Dirty/1, Cleaned/1,
                                     #   Cooked/1, Heated/1, Cooled/1 (no Scanned: it is not
                                     #   a property of the world)
-    effective = ["(and (scanned drawer3))", "(and (on apple drawer3))"]
+    effective = ["(and (scanned drawer3))", "(and (open drawer3))"]
                                     # the goal sets an expert would accept as resolving the
                                     #   anomaly (see experiments.effective for the rule)
     measures_llm = true             # optional (default false): the task belongs to the suite
@@ -34,10 +34,10 @@ hashing). ``validate-data`` recomputes it and reports a mismatch.
 
 **Effective goal sets** (``effective``): ``validate-data`` checks that each parses as an answer
 would (the task's goal vocabulary) and that, proposed as the first answer at the anomaly (as the
-oracle's goals are), the loop accepts it unchanged, plans it from the anomaly state and then
-resolves the task. A task marked ``measures_llm`` must be failed by the ``replan`` baseline
-(:mod:`llmpas.experiments.replan`): its anomaly's cause is something the robot must be told or
-infer, not a fact the planner already has.
+oracle's goals are), the loop accepts it unchanged and plans it from the anomaly state (a run
+that then does not resolve the task is a note, not an error). A task marked ``measures_llm``
+must be failed by the ``replan`` baseline (:mod:`llmpas.experiments.replan`): its anomaly's
+cause is something the robot must be told or infer, not a fact the planner already has.
 
 **Judging** a run (:func:`judge`): the closed loop (:func:`llmpas.system.run_loop`) runs the task
 with the given LLM and prompting method; the sample succeeds when every goal the LLM proposed
@@ -397,7 +397,7 @@ class Judgement:
     goals: tuple[str, ...]  # every accepted goal, in order
     message: str
     wall_time: float
-    first_goals: str = ""  # the first goal answer's literals, as the loop reads them
+    first_goals: str = ""  # the first goal answer's literals, as the method's reader reads them
     first_effective: bool | None = None  # None: the task lists no effective sets
 
     @property
