@@ -398,7 +398,7 @@ class Judgement:
     message: str
     wall_time: float
     first_goals: str = ""  # the first goal answer's literals, as the method's reader reads them
-    first_effective: bool | None = None  # None: the task lists no effective sets
+    first_effective: bool | None = None  # None: no effective sets, or no anomaly
 
     @property
     def success(self) -> bool:
@@ -512,7 +512,9 @@ def judge(
     first_goals = first_answer_goals(proposals[0] if proposals else None, read)
     sets = task.effective_sets()
     lost = lost_object(first[1].constraint) if first else None
-    first_effective = is_effective(first_goals, sets, lost, task.search_places()) if sets else None
+    first_effective = (  # None: nothing to judge (no sets, or no anomaly to resolve)
+        is_effective(first_goals, sets, lost, task.search_places()) if sets and first else None
+    )
     for p in proposals:
         for ex in p.exchanges:
             if ex.tag != "goals" and not ex.tag.startswith("repair"):
