@@ -230,7 +230,7 @@ def test_prompting_jobs_carry_their_task_file(tmp_path: Path) -> None:
     from llmpas.experiments.suite import SUITE_DIR, load_suite
 
     shutil.copy(SUITE_DIR / "ol02-table1.toml", tmp_path)
-    config = prompting.PromptingConfig(llm="oracle", methods=(), suite=tmp_path)
+    config = prompting.PromptingConfig(llm="oracle", methods=(), replan=False, suite=tmp_path)
     [job] = prompting.jobs_for(config, load_suite(tmp_path))
     (tmp_path / "ol02-table1.toml").unlink()
     assert prompting.run_job(job.payload)["success"] is True

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import json
 from pathlib import Path
 from typing import Any
 
@@ -13,6 +14,7 @@ from llmpas.cli import main
 from llmpas.experiments import prompting
 from llmpas.experiments.prompting import (
     ORACLE,
+    REPLAN,
     PromptingConfig,
     build_llm,
     jobs_for,
@@ -74,21 +76,55 @@ def test_sr_and_aspl_follow_the_papers_definition() -> None:
 
 def test_markdown_has_the_table_ii_layout() -> None:
     records = [
-        {**_rec("a", "object-loss", 5, True, 5), "method": ORACLE},
-        {**_rec("b", "action-blocking", 4, True, 4), "method": ORACLE},
-        {**_rec("c", "state-change", 3, True, 3), "method": ORACLE},
-        _rec("a", "object-loss", 5, False, 0),
-        _rec("b", "action-blocking", 4, True, 8),
-        _rec("c", "state-change", 3, True, 3),
+        {**_rec("a", "object-loss", 5, True, 5), "method": ORACLE, "first_effective": True},
+        {**_rec("b", "action-blocking", 4, True, 4), "method": ORACLE, "first_effective": True},
+        {**_rec("c", "state-change", 3, True, 3), "method": ORACLE, "first_effective": True},
+        {**_rec("a", "object-loss", 5, False, 0), "method": REPLAN, "first_effective": False},
+        {**_rec("b", "action-blocking", 4, True, 4), "method": REPLAN, "first_effective": False},
+        {**_rec("c", "state-change", 3, True, 3), "method": REPLAN, "first_effective": False},
+        _rec("a", "object-loss", 5, False, 0, first_effective=False),
+        _rec("b", "action-blocking", 4, True, 8, first_effective=True),
+        _rec("c", "state-change", 3, True, 3),  # a task without effective sets: not counted
     ]
     config = PromptingConfig(llm="openai:x", methods=("flp",))
-    text = markdown_table(summarise(records, [ORACLE, "flp"]), config)
+    text = markdown_table(summarise(records, [ORACLE, REPLAN, "flp"]), config)
     assert (
-        "| Method | Object Loss SR | Object Loss ASPL | Action Blocking SR | Action Blocking ASPL"
-        " | State Change SR | State Change ASPL |" in text
+        "| Method | Object Loss SR | Object Loss ASPL | Object Loss 1st eff. "
+        "| Action Blocking SR | Action Blocking ASPL | Action Blocking 1st eff. "
+        "| State Change SR | State Change ASPL | State Change 1st eff. |" in text
     )
-    assert "| oracle (upper bound) | 1.00 | 1.00 | 1.00 | 1.00 | 1.00 | 1.00 |" in text
-    assert "| flp | 0.00 | 0.00 | 1.00 | 2.00 | 1.00 | 1.00 |" in text
+    assert (
+        "| oracle (upper bound) | 1.00 | 1.00 | 1.00 | 1.00 | 1.00 | 1.00 | 1.00 | 1.00 | 1.00 |"
+        in text
+    )
+    replan = "| replan (no reasoning: the task restated) |"
+    assert f"{replan} 0.00 | 0.00 | 0.00 | 1.00 | 1.00 | 0.00 | 1.00 | 1.00 | 0.00 |" in text
+    assert "| flp | 0.00 | 0.00 | 0.00 | 1.00 | 2.00 | 1.00 | 1.00 | 1.00 | — |" in text
+    # the lift over replan: per type and overall; only methods have one
+    assert "| Method | Object Loss | Action Blocking | State Change | all |" in text
+    assert "| flp | +0.00 | +0.00 | +0.00 | +0.00 |" in text
+    assert f"{replan} 0.67 | 0.67 | 0.00 | — |" in text  # all: SR, ASPL, 1st eff., lift
+    assert "| flp | 0.67 | 1.00 | 0.50 | +0.00 |" in text
+
+
+def test_lift_is_the_sr_difference_with_the_replan_row_per_type_and_overall() -> None:
+    records = [
+        {**_rec("a", "object-loss", 5, False, 0), "method": REPLAN},
+        {**_rec("b", "object-loss", 5, True, 5), "method": REPLAN},
+        {**_rec("c", "state-change", 3, True, 3), "method": REPLAN},
+        _rec("a", "object-loss", 5, True, 5),
+        _rec("a", "object-loss", 5, True, 5),
+        _rec("b", "object-loss", 5, True, 5),
+        _rec("b", "object-loss", 5, False, 0),
+        _rec("c", "state-change", 3, False, 0),
+    ]
+    cells = {(c.method, c.category): c for c in summarise(records, [REPLAN, "flp"])}
+    assert cells[("flp", "object-loss")].lift == pytest.approx((1 + 0.5) / 2 - 0.5)
+    assert cells[("flp", "state-change")].lift == pytest.approx(-1.0)
+    assert cells[("flp", "all")].lift == pytest.approx((1 + 0.5 + 0) / 3 - 2 / 3)
+    assert all(c.lift is None for (m, _), c in cells.items() if m == REPLAN)
+    # without a replan row there is nothing to lift over
+    assert all(c.lift is None for c in summarise(records[3:], ["flp"]))
 
 
 @pytest.mark.parametrize(
@@ -96,7 +132,7 @@ def test_markdown_has_the_table_ii_layout() -> None:
     [
         {"methods": ("nosuch",)},
         {"methods": ("flp", "flp")},
-        {"methods": (), "oracle": False},
+        {"methods": (), "oracle": False, "replan": False},
         {"samples": 0},
         {"temperature": 3.0},
         {"jobs": 0},
@@ -114,10 +150,17 @@ def test_jobs_cover_methods_tasks_and_samples_with_distinct_seeds() -> None:
     tasks = load_suite(names=["ol02-table1", "sc02-apple-stove"])
     config = PromptingConfig(llm="openai:m", methods=("flp", "one-step"), samples=3)
     jobs = jobs_for(config, tasks)
-    assert len(jobs) == 2 * 1 + 2 * 2 * 3  # the oracle: one deterministic sample per task
+    # the oracle and replan: one deterministic sample per task
+    assert len(jobs) == 2 * 1 + 2 * 1 + 2 * 2 * 3
     seeds = {j.payload.loop.method.seed for j in jobs if j.payload.method == "flp"}
     assert seeds == {0, 1, 2}
     assert all(j.payload.llm == ORACLE for j in jobs if j.payload.method == ORACLE)
+    replan = [j for j in jobs if j.payload.method == REPLAN]
+    assert len(replan) == 2 and all(j.payload.llm == REPLAN and not j.resources for j in replan)
+    # the same loop and budget as the oracle row
+    assert {j.payload.loop for j in replan} == {
+        j.payload.loop for j in jobs if j.payload.method == ORACLE
+    }
     assert all(j.payload.loop.method.temperature == 0.7 for j in jobs if j.payload.method == "flp")
     # a changed configuration never reuses cached results
     other = jobs_for(PromptingConfig(llm="openai:m", methods=("flp",), repairs=0), tasks)
@@ -150,22 +193,34 @@ def test_bench_writes_table_csv_plot_and_resumes_from_cache(
     ]
     assert main(argv) == 0
     names = {p.name for p in out.iterdir()}
-    assert {"prompting.md", "prompting.csv", "prompting_samples.csv", "prompting.png"} <= names
+    assert {
+        "prompting.md",
+        "prompting.csv",
+        "prompting.json",
+        "prompting_samples.csv",
+        "prompting.png",
+    } <= names
     assert (out / "prompting.png").read_bytes().startswith(b"\x89PNG")
     rows = list(csv.DictReader((out / "prompting.csv").open()))
     assert {(r["method"], r["category"]) for r in rows} == {
-        ("oracle", "object-loss"),
-        ("oracle", "all"),
-        ("flp", "object-loss"),
-        ("flp", "all"),
+        (m, c) for m in ("oracle", "replan", "flp") for c in ("object-loss", "all")
     }
-    assert all(float(r["sr"]) == 1.0 for r in rows)
+    solved = [r for r in rows if r["method"] != REPLAN]
+    assert all(float(r["sr"]) == 1.0 for r in solved)
     # L̄ / L_gt: l_gt is the shortest over fixed hash seeds, this process's may plan longer
-    assert all(0.5 < float(r["aspl"]) < 1.5 for r in rows)
+    assert all(0.5 < float(r["aspl"]) < 1.5 for r in solved)
+    # replan cannot find the lost mug: SR 0, its first proposal (the task) is not effective
+    assert all(float(r["sr"]) == 0.0 for r in rows if r["method"] == REPLAN)
+    assert all(float(r["first_effective"]) == 0.0 for r in rows if r["method"] == REPLAN)
+    assert all(float(r["lift"]) == 1.0 for r in rows if r["method"] == "flp")
     samples = list(csv.DictReader((out / "prompting_samples.csv").open()))
-    assert len(samples) == 1 + 2
-    assert "| oracle (upper bound) |" in (out / "prompting.md").read_text()
-    assert len(list((out / "cache").glob("*.json"))) == 3
+    assert len(samples) == 1 + 1 + 2
+    md = (out / "prompting.md").read_text()
+    assert "| oracle (upper bound) |" in md and "| replan (no reasoning" in md
+    data = json.loads((out / "prompting.json").read_text())
+    flp_all = next(c for c in data["cells"] if (c["method"], c["category"]) == ("flp", "all"))
+    assert flp_all["lift"] == 1.0 and flp_all["first_effective"] == 1.0
+    assert len(list((out / "cache").glob("*.json"))) == 4
 
     def no_more_work(payload: object) -> dict[str, Any]:
         raise AssertionError("a cached job ran again")
@@ -175,7 +230,8 @@ def test_bench_writes_table_csv_plot_and_resumes_from_cache(
         llm=ORACLE, methods=("flp",), tasks=("ol02-table1",), samples=2, out_dir=out
     )
     again = run_prompting(config, QUIET)
-    assert len(again.records) == 3 and all(r["success"] for r in again.records)
+    assert len(again.records) == 4
+    assert [r["success"] for r in again.records if r["method"] != REPLAN] == [True] * 3
 
 
 def test_all_methods_are_offered() -> None:

@@ -17,20 +17,33 @@ LLM latency per sample, and the end-to-end completion rate of the closed loop (t
 the task done). The ``oracle`` row (the labelled oracle answers from the simulator's true state;
 an upper bound, never a default) runs one sample per task (it is deterministic).
 
+What the LLM contributes, beside SR and ASPL:
+
+- the ``replan`` row (:mod:`llmpas.experiments.replan`; a baseline, not an oracle): a backend
+  that answers every goal request with the task goal restated, in the same loop with the same
+  budget (the oracle's path: ``flp``, one sample per task). Each method's **lift** is its SR minus
+  replan's, per anomaly type and overall: what its reasoning adds to replanning the task from the
+  robot's belief (which already resolves an anomaly whose cause the robot perceived).
+- the **first-proposal effective rate**: the share of samples whose first goal answer entails one
+  of the task's effective goal sets (``[judge] effective``; the rule:
+  :mod:`llmpas.experiments.effective`), over the samples of tasks that list sets.
+
 Each (method, task, sample) is a cached job (:mod:`llmpas.experiments.jobs`): an interrupted run
 resumes, ``jobs`` runs them in parallel processes. Writes ``prompting.md`` (Table II and the extra
-metrics), ``prompting.csv`` (one row per method and anomaly type), ``prompting_samples.csv``
-(one row per sample) and ``prompting.png``.
+metrics), ``prompting.csv`` (one row per method and anomaly type), ``prompting.json`` (the same
+cells with the run's settings), ``prompting_samples.csv`` (one row per sample) and
+``prompting.png``.
 """
 
 from __future__ import annotations
 
 import argparse
 import hashlib
+import json
 import logging
 import statistics
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -49,6 +62,7 @@ from llmpas.experiments.jobs import (
     llm_resources,
     run_jobs,
 )
+from llmpas.experiments.replan import REPLAN, Replan
 from llmpas.experiments.suite import (
     HASH_SEEDS,
     SUITE_DIR,
@@ -71,6 +85,8 @@ log = logging.getLogger(__name__)
 
 ORACLE = "oracle"
 UPPER_BOUND = "upper bound"
+BASELINE = "no reasoning"
+REPLAN_VERSION = "replan-1"  # part of the replan row's cache keys: bump when its answers change
 
 
 @dataclass(frozen=True)
@@ -80,12 +96,16 @@ class PromptingConfig:
     ``llm``: ``oracle`` | ``replay:DIR`` | ``openai:MODEL[@URL]`` | ``llama-cpp[:PATH]`` (as
     ``llmpas run --llm``); ``record``: a cassette folder the answers are recorded into.
     ``methods``: prompting methods (of :data:`llmpas.reasoning.methods.METHODS`); ``oracle``
-    adds the upper-bound row. ``tasks``: only these task names (default: the whole suite).
+    adds the upper-bound row, ``replan`` the no-reasoning baseline row (and the lifts).
+    ``tasks``: only these task names (default: the whole suite); ``measures_llm``: only the
+    tasks marked ``measures_llm`` (the suite that measures the LLM).
     """
 
     llm: str = "llama-cpp"
     methods: tuple[str, ...] = METHODS
     oracle: bool = True
+    replan: bool = True
+    measures_llm: bool = False
     samples: int = 3
     temperature: float = 0.7
     seed: int = 0
@@ -108,8 +128,8 @@ class PromptingConfig:
             raise ValueError(f"unknown method {bad[0]!r}; methods: {', '.join(METHODS)}")
         if len(set(self.methods)) != len(self.methods):
             raise ValueError("a method is listed twice")
-        if not self.methods and not self.oracle:
-            raise ValueError("nothing to run: give methods or keep the oracle row")
+        if not self.methods and not self.oracle and not self.replan:
+            raise ValueError("nothing to run: give methods or keep the oracle or replan row")
         if self.samples < 1:
             raise ValueError(f"samples must be >= 1, got {self.samples}")
         if not 0.0 <= self.temperature <= 2.0:
@@ -134,13 +154,14 @@ class PromptingConfig:
 
 @dataclass(frozen=True)
 class Payload:
-    """One job: run ``method`` (``oracle``: the upper bound) on one task file, sample ``sample``.
+    """One job: run ``method`` (``oracle``: the upper bound; ``replan``: the no-reasoning
+    baseline) on one task file, sample ``sample``.
     The file's content travels with the job (a cluster's workers need not have the file)."""
 
     task_file: str
     method: str
     sample: int
-    llm: str  # the backend spec ("oracle" for the oracle row)
+    llm: str  # the backend spec ("oracle" / "replan" for those rows)
     record: str | None
     loop: LoopConfig
     task_data: bytes | None = None  # the task file's content (None: read ``task_file``)
@@ -161,7 +182,7 @@ def build_llm(spec: str, record: str | None = None) -> LLM | LLMFor:
 
 def loop_config(config: PromptingConfig, method: str, sample: int) -> LoopConfig:
     """The closed loop of one sample: the method's config with the sample's LLM seed."""
-    is_oracle = method == ORACLE
+    is_oracle = method in (ORACLE, REPLAN)  # deterministic rows: the oracle's path
     return LoopConfig(
         method=MethodConfig(
             method="flp" if is_oracle else method,
@@ -182,7 +203,11 @@ def run_job(payload: Payload) -> dict[str, Any]:
         task = load_task(payload.task_file)
     else:
         task = parse_task(payload.task_data, payload.task_file)
-    llm = build_llm(payload.llm, payload.record)
+    llm = (
+        Replan(task.scenario.goal, payload.loop.method.method)
+        if payload.method == REPLAN
+        else build_llm(payload.llm, payload.record)
+    )
     j = judge(task, llm, payload.loop, _keeper(payload, task) if payload.keep else None)
     log.info("%s %s #%d: %s", payload.method, task.name, payload.sample, j.verdict.value)
     return {"method": payload.method, "sample": payload.sample, "l_gt": task.l_gt, **j.to_json()}
@@ -227,6 +252,8 @@ class Cell:
     latency: float  # seconds per sample
     completion: float  # share of samples the loop reported done
     false_done: int  # samples the loop believed done but the truth disagreed
+    first_effective: float | None = None  # share of first proposals that are effective
+    lift: float | None = None  # SR minus the replan row's SR (None: no replan row, a baseline)
 
 
 def _cell(method: str, category: str, records: Sequence[dict[str, Any]]) -> Cell:
@@ -246,6 +273,7 @@ def _cell(method: str, category: str, records: Sequence[dict[str, Any]]) -> Cell
     n = len(by_task)
     answers = sum(int(r["answers"]) for r in records)
     count = len(records)
+    judged = [bool(r["first_effective"]) for r in records if r.get("first_effective") is not None]
     return Cell(
         method=method,
         category=category,
@@ -261,11 +289,13 @@ def _cell(method: str, category: str, records: Sequence[dict[str, Any]]) -> Cell
         latency=sum(float(r["latency"]) for r in records) / count,
         completion=sum(bool(r["completed"]) for r in records) / count,
         false_done=sum(r["verdict"] == "false-done" for r in records),
+        first_effective=sum(judged) / len(judged) if judged else None,
     )
 
 
 def summarise(records: Sequence[dict[str, Any]], methods: Sequence[str]) -> tuple[Cell, ...]:
-    """One cell per method and anomaly type present, plus ``all`` per method."""
+    """One cell per method and anomaly type present, plus ``all`` per method; each method's
+    cell has its lift over the replan row's cell of the same type (when there is one)."""
     cells = []
     for method in methods:
         mine = [r for r in records if r["method"] == method]
@@ -276,12 +306,20 @@ def summarise(records: Sequence[dict[str, Any]], methods: Sequence[str]) -> tupl
             if rs:
                 cells.append(_cell(method, cat.value, rs))
         cells.append(_cell(method, "all", mine))
-    return tuple(cells)
+    base = {c.category: c.sr for c in cells if c.method == REPLAN}
+    return tuple(
+        replace(c, lift=c.sr - base[c.category])
+        if c.method not in (ORACLE, REPLAN) and c.category in base
+        else c
+        for c in cells
+    )
 
 
 def method_label(method: str, llm: str) -> str:
     if method == ORACLE:
         return f"oracle ({UPPER_BOUND})"
+    if method == REPLAN:
+        return f"replan ({BASELINE}: the task restated)"
     if llm == ORACLE:
         return f"{method} with the oracle LLM ({UPPER_BOUND})"
     return method
@@ -291,29 +329,56 @@ def _f(x: float | None, digits: int = 2) -> str:
     return "—" if x is None else f"{x:.{digits}f}"
 
 
+def _signed(x: float | None) -> str:
+    return "—" if x is None else f"{x:+.2f}"
+
+
 def markdown_table(cells: Sequence[Cell], config: PromptingConfig) -> str:
     methods = list(dict.fromkeys(c.method for c in cells))
     cats = [c for c in Category if any(x.category == c.value for x in cells)]
     get = {(c.method, c.category): c for c in cells}
+    fixed = " and ".join(
+        name for name, on in ((ORACLE, config.oracle), (REPLAN, config.replan)) if on
+    )
     sampling = (
-        f"{config.samples} sample(s) per task at temperature {config.temperature:g}, oracle: 1"
+        f"{config.samples} sample(s) per task at temperature {config.temperature:g}"
+        + (f", {fixed}: 1" if fixed else "")
         if config.methods
         else "1 sample per task"
     )
     lines = [
         f"Prompting methods on the household anomaly suite (LLM: {config.llm}; {sampling}; "
         f"at most {config.max_rounds} LLM rounds per run). "
-        "SR: success rate; ASPL = (1/n) Σ (L̄_i / L_gt,i) × SR_i.",
+        "SR: success rate; ASPL = (1/n) Σ (L̄_i / L_gt,i) × SR_i; "
+        "1st eff.: share of first proposals that entail an effective goal set of the task.",
         "",
-        "| Method | " + " | ".join(f"{c.title} SR | {c.title} ASPL" for c in cats) + " |",
-        "|---|" + "---:|---:|" * len(cats),
+        "| Method | "
+        + " | ".join(f"{c.title} SR | {c.title} ASPL | {c.title} 1st eff." for c in cats)
+        + " |",
+        "|---|" + "---:|---:|---:|" * len(cats),
     ]
     for m in methods:
         row = [method_label(m, config.llm)]
         for cat in cats:
             cell = get.get((m, cat.value))
-            row += [_f(cell.sr), _f(cell.aspl)] if cell else ["—", "—"]
+            row += [_f(cell.sr), _f(cell.aspl), _f(cell.first_effective)] if cell else ["—"] * 3
         lines.append("| " + " | ".join(row) + " |")
+    lifted = [m for m in methods if get.get((m, "all")) and get[(m, "all")].lift is not None]
+    if lifted:
+        lines += [
+            "",
+            "Lift over replan (SR minus the replan row's SR; replan answers every goal request "
+            "with the task goal, so a lift near 0 means the planner, not the LLM, resolved the "
+            "anomalies):",
+            "",
+            "| Method | " + " | ".join(c.title for c in cats) + " | all |",
+            "|---|" + "---:|" * (len(cats) + 1),
+        ]
+        for m in lifted:
+            row = [method_label(m, config.llm)]
+            row += [_signed(get[(m, c.value)].lift) if (m, c.value) in get else "—" for c in cats]
+            row.append(_signed(get[(m, "all")].lift))
+            lines.append("| " + " | ".join(row) + " |")
     counts = ", ".join(
         f"{get[(methods[0], c.value)].tasks} {c.value}"
         for c in cats
@@ -323,14 +388,15 @@ def markdown_table(cells: Sequence[Cell], config: PromptingConfig) -> str:
         "",
         f"Per sample, over all tasks (n = {counts}):",
         "",
-        "| Method | SR | ASPL | syntax-error rate | repairs | tokens | LLM latency (s) "
-        "| loop completion | false done |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "| Method | SR | ASPL | 1st eff. | lift | syntax-error rate | repairs | tokens "
+        "| LLM latency (s) | loop completion | false done |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for m in methods:
         c = get[(m, "all")]
         lines.append(
             f"| {method_label(m, config.llm)} | {_f(c.sr)} | {_f(c.aspl)} | "
+            f"{_f(c.first_effective)} | {_signed(c.lift)} | "
             f"{_f(c.syntax_error_rate)} | {c.repairs:.2f} | {c.tokens:.0f} | {c.latency:.2f} | "
             f"{c.completion:.2f} | {c.false_done} |"
         )
@@ -347,23 +413,34 @@ class Report:
     files: tuple[Path, ...] = field(default=())
 
 
+def rows(config: PromptingConfig) -> list[str]:
+    """The table's rows, in order: the oracle, replan, then the methods."""
+    fixed = [m for m, on in ((ORACLE, config.oracle), (REPLAN, config.replan)) if on]
+    return fixed + list(config.methods)
+
+
 def jobs_for(config: PromptingConfig, tasks: Sequence[SuiteTask]) -> list[Job[Payload]]:
-    rows = ([ORACLE] if config.oracle else []) + list(config.methods)
     out = []
     data = {t.source: _content(t) for t in tasks}
-    for method in rows:
-        is_oracle = method == ORACLE
-        llm = ORACLE if is_oracle else config.llm
-        record = None if is_oracle or config.record is None else str(config.record)
+    for method in rows(config):
+        is_fixed = method in (ORACLE, REPLAN)  # deterministic, never an LLM: one sample
+        llm = method if is_fixed else config.llm
+        record = None if is_fixed or config.record is None else str(config.record)
         for t in tasks:
-            for k in range(1 if is_oracle else config.samples):
+            for k in range(1 if is_fixed else config.samples):
                 loop = loop_config(config, method, k)
-                prompts = "" if is_oracle else _templates_digest()
+                prompts = (
+                    ""
+                    if method == ORACLE
+                    else REPLAN_VERSION
+                    if method == REPLAN
+                    else _templates_digest()
+                )
                 digest = fingerprint([t.digest, asdict(loop), llm, record, prompts])
                 key = f"{method}/{_safe(llm)}/{t.name}/s{k}/{digest}"
                 keep = str(run_folder(config, key)) if config.keep_runs else None
                 payload = Payload(t.source, method, k, llm, record, loop, data[t.source], keep)
-                out.append(Job(key, payload, llm_resources(llm)))
+                out.append(Job(key, payload, {} if is_fixed else llm_resources(llm)))
     return out
 
 
@@ -380,6 +457,10 @@ def run_prompting(config: PromptingConfig, console: Console | None = None) -> Re
     """Run (or resume) the experiment and write the table, CSVs and plot."""
     console = console or Console()
     tasks = load_suite(config.suite, config.tasks)
+    if config.measures_llm:
+        tasks = tuple(t for t in tasks if t.measures_llm)
+        if not tasks:
+            raise ValueError(f"{config.suite}: no task is marked measures_llm")
     jobs = jobs_for(config, tasks)
     if (
         config.methods
@@ -399,8 +480,7 @@ def run_prompting(config: PromptingConfig, console: Console | None = None) -> Re
         console=console,
         executor=config.executor,
     )
-    order = ([ORACLE] if config.oracle else []) + list(config.methods)
-    cells = summarise(records, order)
+    cells = summarise(records, rows(config))
     files = write_outputs(records, cells, config)
     console.print(markdown_table(cells, config), soft_wrap=True, highlight=False, markup=False)
     return Report(tuple(records), cells, files)
@@ -419,12 +499,27 @@ def write_outputs(
     samples = write_csv(
         out / "prompting_samples.csv", [{k: v for k, v in r.items() if k != "key"} for r in records]
     )
+    about = {
+        "llm": config.llm,
+        "methods": list(config.methods),
+        "oracle": config.oracle,
+        "replan": config.replan,
+        "measures_llm": config.measures_llm,
+        "samples": config.samples,
+        "temperature": config.temperature,
+        "max_rounds": config.max_rounds,
+        "tasks": sorted({str(r["task"]) for r in records}),
+    }
+    table = [{**asdict(c), "label": method_label(c.method, config.llm)} for c in cells]
+    js = atomic_write(
+        out / "prompting.json", json.dumps({"config": about, "cells": table}, indent=2) + "\n"
+    )
     png = out / "prompting.png"
     plot(cells, config, png)
     from llmpas.experiments.prompting_page import write_page
 
     page = write_page(records, cells, config)
-    return (md, summary, samples, png, page)
+    return (md, summary, js, samples, png, page)
 
 
 def plot(cells: Sequence[Cell], config: PromptingConfig, path: Path) -> None:
@@ -488,10 +583,21 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--methods",
         nargs="+",
         default=["all"],
-        help=f"prompting methods: all, none (the oracle row only), or some of {', '.join(METHODS)}",
+        help="prompting methods: all, none (the oracle and replan rows only), or some of "
+        + ", ".join(METHODS),
     )
     p.add_argument(
         "--no-oracle", action="store_true", help="leave out the oracle (upper-bound) row"
+    )
+    p.add_argument(
+        "--no-replan",
+        action="store_true",
+        help="leave out the replan row (no reasoning: the task goal restated) and the lifts",
+    )
+    p.add_argument(
+        "--measures-llm",
+        action="store_true",
+        help="only the tasks marked measures_llm (the replan baseline fails them)",
     )
     p.add_argument("--samples", type=int, default=3, help="samples per task and method")
     p.add_argument("--temperature", type=float, default=0.7)
@@ -525,6 +631,8 @@ def config_from_args(args: argparse.Namespace) -> PromptingConfig:
         llm=args.llm,
         methods=methods,
         oracle=not args.no_oracle,
+        replan=not getattr(args, "no_replan", False),
+        measures_llm=getattr(args, "measures_llm", False),
         samples=args.samples,
         temperature=args.temperature,
         seed=args.seed,
@@ -585,8 +693,18 @@ def validate_command(args: argparse.Namespace, console: Console) -> int:
             jobs=args.jobs,
             progress=lambda _name: advance(),
         )
+    for note in result.notes:
+        console.print(f"[yellow]note[/]: {note}", highlight=False, soft_wrap=True)
     for issue in result.issues:
         console.print(f"[bold red]error[/]: {issue}", highlight=False, soft_wrap=True)
+    if result.replan:
+        failed = sum(v != "success" for v in result.replan.values())
+        console.print(
+            f"replan (the task goal restated) fails {failed} of {len(result.replan)} tasks: "
+            + ", ".join(f"{t} {v}" for t, v in sorted(result.replan.items())),
+            highlight=False,
+            soft_wrap=True,
+        )
     if result.ok:
         console.print(f"[bold green]ok[/]: {len(result.tasks)} task files in {folder}")
         return 0
@@ -596,6 +714,7 @@ def validate_command(args: argparse.Namespace, console: Console) -> int:
 
 __all__ = [
     "ORACLE",
+    "REPLAN",
     "Cell",
     "Payload",
     "PromptingConfig",
@@ -607,6 +726,7 @@ __all__ = [
     "jobs_for",
     "loop_config",
     "markdown_table",
+    "rows",
     "run_job",
     "run_prompting",
     "summarise",

@@ -38,15 +38,19 @@ def _table(cells: Sequence[Cell], config: PromptingConfig) -> Markup:
     cats = [c.value for c in Category if any(x.category == c.value for x in cells)] + ["all"]
     get = {(c.method, c.category): c for c in cells}
     head = [tag("th", "method")]
-    head += [tag("th", f"{c} SR", " / ", "ASPL") for c in cats]
+    head += [tag("th", f"{c} SR", " / ", "ASPL", " / ", "1st eff.") for c in cats]
+    head.append(tag("th", "lift over replan (all)"))
     rows = [tag("tr", *head)]
     for m in methods:
         tds = [tag("td", method_label(m, config.llm))]
         for cat in cats:
             cell = get.get((m, cat))
-            shown = f"{_f(cell.sr)} / {_f(cell.aspl)}" if cell else "—"
+            shown = f"{_f(cell.sr)} / {_f(cell.aspl)} / {_f(cell.first_effective)}" if cell else "—"
             link = tag("a", shown, href=f"#{_anchor(m, cat)}", class_="cell") if cell else shown
             tds.append(tag("td", link, class_="num"))
+        every = get.get((m, "all"))
+        lift = every.lift if every is not None else None
+        tds.append(tag("td", "—" if lift is None else f"{lift:+.2f}", class_="num"))
         rows.append(tag("tr", *tds))
     return tag("table", *rows)
 
@@ -57,7 +61,8 @@ def _samples(records: Sequence[Mapping[str, Any]], config: PromptingConfig) -> M
     groups: dict[tuple[str, str], list[Mapping[str, Any]]] = {}
     for r in records:
         groups.setdefault((str(r.get("method")), str(r.get("category"))), []).append(r)
-    head = ("task", "sample", "verdict", "goals", "repairs", "LLM s", "run")
+    head: tuple[str, ...] = ("task", "sample", "verdict", "first goals", "1st eff.", "goals")
+    head += ("repairs", "LLM s", "run")
     seen: set[str] = set()
     for (method, cat), rs in groups.items():
         if method not in seen:  # the method's "all" cell links to its first group
@@ -87,6 +92,8 @@ def _sample_row(r: Mapping[str, Any], config: PromptingConfig) -> Markup:
         r.get("task", ""),
         r.get("sample", ""),
         tag("span", verdict),
+        str(r.get("first_goals", "")),
+        _yes_no(r.get("first_effective")),
         " ".join(map(str, goals)) if isinstance(goals, list) else str(goals or ""),
         r.get("repairs", ""),
         r.get("latency", ""),
@@ -94,6 +101,10 @@ def _sample_row(r: Mapping[str, Any], config: PromptingConfig) -> Markup:
     ]
     tds = [tag("td", c, class_="v" if i == 2 else None) for i, c in enumerate(cells)]
     return tag("tr", *tds, class_=f"v-{slug(verdict)}")
+
+
+def _yes_no(value: object) -> str:
+    return "—" if value is None else "yes" if value else "no"
 
 
 def render_page(
@@ -105,8 +116,10 @@ def render_page(
         tag(
             "p",
             f"LLM: {config.llm}; {config.samples} sample(s) per task and method at temperature "
-            f"{config.temperature:g} (the oracle: 1); at most {config.max_rounds} LLM rounds per "
-            "run. SR: success rate; ASPL = (1/n) Σ (L̄_i / L_gt,i) × SR_i. A cell links to its "
+            f"{config.temperature:g} (the oracle and replan: 1); at most {config.max_rounds} LLM "
+            "rounds per run. SR: success rate; ASPL = (1/n) Σ (L̄_i / L_gt,i) × SR_i; 1st eff.: "
+            "share of first proposals that entail an effective goal set; lift: SR minus the "
+            "replan row's (the task goal restated, no reasoning). A cell links to its "
             "samples" + (", each to its run." if config.keep_runs else "."),
             class_="message",
         ),

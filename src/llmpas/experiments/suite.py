@@ -15,6 +15,12 @@ belief that differs from the truth) — plus one extra table that the scenario p
                                     #   On/2, Holding/1, Open/1, Dirty/1, Cleaned/1,
                                     #   Cooked/1, Heated/1, Cooled/1 (no Scanned: it is not
                                     #   a property of the world)
+    effective = ["(and (scanned drawer3))", "(and (open drawer3))"]
+                                    # the goal sets an expert would accept as resolving the
+                                    #   anomaly (see experiments.effective for the rule)
+    measures_llm = true             # optional (default false): the task belongs to the suite
+                                    #   that measures the LLM: replanning the task alone
+                                    #   (the replan row) must fail it
 
 The task name (``name``) must be the file's stem.
 
@@ -25,6 +31,13 @@ the true anomaly state when told the truth there — the labelled oracle's goals
 the simulator's true state; it is an upper bound, never a default) — the shortest over runs with
 each ``PYTHONHASHSEED`` of :data:`HASH_SEEDS` (the planner's tie-breaking depends on string
 hashing). ``validate-data`` recomputes it and reports a mismatch.
+
+**Effective goal sets** (``effective``): ``validate-data`` checks that each parses as an answer
+would (the task's goal vocabulary) and that, proposed as the first answer at the anomaly (as the
+oracle's goals are), the loop accepts it unchanged and plans it from the anomaly state (a run
+that then does not resolve the task is a note, not an error). A task marked ``measures_llm``
+must be failed by the ``replan`` baseline (:mod:`llmpas.experiments.replan`): its anomaly's
+cause is something the robot must be told or infer, not a fact the planner already has.
 
 **Judging** a run (:func:`judge`): the closed loop (:func:`llmpas.system.run`) runs the task
 with the given LLM and prompting method; the sample succeeds when every goal the LLM proposed
@@ -40,20 +53,29 @@ import hashlib
 import logging
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, cast
 
 from llmpas.errors import InputError
 from llmpas.execution.anomaly import AnomalyReport
+from llmpas.experiments.effective import (
+    EffectiveSetError,
+    as_search,
+    is_effective,
+    lost_object,
+    parse_set,
+)
 from llmpas.experiments.oracles.household import oracle as household_oracle
+from llmpas.experiments.replan import Replan
 from llmpas.experiments.worlds import LoopConfig
 from llmpas.inputs import TOML_LIMIT, decode_text, parse_toml, read_bytes
 from llmpas.language.errors import PddlSyntaxError
 from llmpas.language.logic import Atom, Not
 from llmpas.language.sexpr import SExpr, SList, Sym, parse_all
-from llmpas.reasoning.goals import GoalParse, GoalStatus, parse_goals
-from llmpas.reasoning.llm import LLM
+from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal, parse_goals
+from llmpas.reasoning.llm import LLM, Request, Response
+from llmpas.reasoning.methods import Proposal
 from llmpas.reasoning.program import parse_program
 from llmpas.system import LLMFor, LoopResult, run
 from llmpas.worlds.household.layout import kitchen
@@ -93,7 +115,7 @@ ANOMALY_PREDICATE: Mapping[Category, tuple[str, bool]] = {
 }
 """The constraint the first anomaly report of each category names: (predicate, negated)."""
 
-JUDGE_FIELDS = ("category", "l_gt", "success")
+JUDGE_FIELDS = ("category", "l_gt", "success", "effective", "measures_llm")
 SUCCESS_PREDICATES: Mapping[str, int] = {
     "on": 2,
     "holding": 1,
@@ -124,6 +146,8 @@ class SuiteTask:
     scenario: Scenario = field(repr=False)
     source: str = "<task>"
     digest: str = ""  # sha256 of the file's text (cache keys change when the file does)
+    effective: tuple[str, ...] = ()  # goal sets an expert accepts (PDDL conjunctions)
+    measures_llm: bool = False  # in the suite that measures the LLM (replan must fail it)
 
     def __post_init__(self) -> None:
         if self.l_gt < 1:
@@ -131,6 +155,21 @@ class SuiteTask:
         if self.name != self.scenario.name:
             raise ValueError(f"{self.source}: name {self.name!r} != {self.scenario.name!r}")
         _success_formula(self.success, self.source, _known_names(self.scenario))
+        self.effective_sets()
+
+    def effective_sets(self) -> tuple[tuple[Literal, ...], ...]:
+        """The effective sets as literals (SuiteError naming the file and the set)."""
+        vocab = vocabulary(household_for(self.scenario))
+        out = []
+        for i, text in enumerate(self.effective):
+            try:
+                out.append(parse_set(text, vocab))
+            except EffectiveSetError as e:
+                raise SuiteError(f"{self.source}: judge.effective[{i}]: {e}") from None
+        return tuple(out)
+
+    def search_places(self) -> tuple[str, ...]:
+        return household_for(self.scenario).search_places()
 
 
 def task_from_dict(
@@ -175,7 +214,27 @@ def task_from_dict(
     if not isinstance(success, str):
         raise SuiteError(f"{source}: judge.success: must be PDDL text, got {success!r}")
     _success_formula(success, source, _known_names(scenario))
-    return SuiteTask(scenario.name, category, l_gt, success.strip(), scenario, source, digest)
+    effective = judge_table.get("effective", [])
+    if not isinstance(effective, list) or not all(isinstance(e, str) for e in effective):
+        raise SuiteError(
+            f"{source}: judge.effective: must be an array of PDDL conjunctions, got {effective!r}"
+        )
+    measures_llm = judge_table.get("measures_llm", False)
+    if not isinstance(measures_llm, bool):
+        raise SuiteError(
+            f"{source}: judge.measures_llm: must be true or false, got {measures_llm!r}"
+        )
+    return SuiteTask(
+        scenario.name,
+        category,
+        l_gt,
+        success.strip(),
+        scenario,
+        source,
+        digest,
+        tuple(e.strip() for e in effective),
+        measures_llm,
+    )
 
 
 def load_task(path: str | Path) -> SuiteTask:
@@ -340,6 +399,8 @@ class Judgement:
     goals: tuple[str, ...]  # every accepted goal, in order
     message: str
     wall_time: float
+    first_goals: str = ""  # the first goal answer's literals, as the method's reader reads them
+    first_effective: bool | None = None  # None: no effective sets, or no anomaly
 
     @property
     def success(self) -> bool:
@@ -365,6 +426,8 @@ class Judgement:
             "goals": " ".join(self.goals),
             "message": self.message,
             "wall_time": round(self.wall_time, 3),
+            "first_goals": self.first_goals,
+            "first_effective": self.first_effective,
         }
 
 
@@ -448,6 +511,12 @@ def judge(
     proposals = [r.proposal for r in result.rounds if r.proposal is not None]
     answers = syntax = 0
     read = _answer_reader(task, config)
+    first_goals = first_answer_goals(proposals[0] if proposals else None, read)
+    sets = task.effective_sets()
+    lost = lost_object(first[1].constraint) if first else None
+    first_effective = (  # None: nothing to judge (no sets, or no anomaly to resolve)
+        is_effective(first_goals, sets, lost, task.search_places()) if sets and first else None
+    )
     for p in proposals:
         for ex in p.exchanges:
             if ex.tag != "goals" and not ex.tag.startswith("repair"):
@@ -472,7 +541,23 @@ def judge(
         goals=tuple(str(g) for p in proposals for g in p.goals),
         message=result.message,
         wall_time=time.perf_counter() - start,
+        first_goals=" ".join(map(str, first_goals)),
+        first_effective=first_effective,
     )
+
+
+def first_answer_goals(
+    proposal: Proposal | None, read: Callable[[str], GoalParse]
+) -> tuple[Literal, ...]:
+    """The literals of a consultation's first goal answer (before any feedback or repair),
+    read with the method's reader; () when it did not parse or there was none."""
+    if proposal is None:
+        return ()
+    for ex in proposal.exchanges:
+        if ex.tag == "goals":
+            parse = read(ex.response.text)
+            return parse.goals if parse.ok else ()
+    return ()
 
 
 # --------------------------------------------------------------------------------- validation
@@ -514,15 +599,29 @@ class OracleRun:
     issues: tuple[Issue, ...]
     length: int | None
     hash_seed: str = ""
+    replan: str = ""  # the replan baseline's verdict ("": not run)
+    notes: tuple[Issue, ...] = ()  # remarks that are not errors
 
 
-def oracle_run(task: SuiteTask, config: LoopConfig | None = None) -> OracleRun:
+def oracle_run(
+    task: SuiteTask, config: LoopConfig | None = None, *, judge_sets: bool = False
+) -> OracleRun:
     """Run the task with the oracle and check that the task can be planned, every event fires,
     an anomaly of the task's category happens, and the oracle's resolution completes the task on
-    the true state."""
+    the true state. ``judge_sets``: also check the effective sets (:func:`effective_issues`) and
+    run the replan baseline (:func:`replan_issues`)."""
+    config = config or LoopConfig()
+    run = _oracle_run(task, config)
+    if not judge_sets:
+        return run
+    extra, notes = effective_issues(task, config)
+    replan, why = replan_issues(task, config)
+    return replace(run, issues=(*run.issues, *extra, *why), replan=replan, notes=tuple(notes))
+
+
+def _oracle_run(task: SuiteTask, config: LoopConfig) -> OracleRun:
     import os
 
-    config = config or LoopConfig()
     src = task.source
     seed = os.environ.get("PYTHONHASHSEED", "")
     traced = run_traced(task, household_oracle, config)
@@ -581,6 +680,83 @@ def oracle_run(task: SuiteTask, config: LoopConfig | None = None) -> OracleRun:
     return OracleRun(src, tuple(issues), resolution_length(result), seed)
 
 
+class _FirstAnswer:
+    """Answers the first goal request with ``answer`` and everything else as ``inner`` (the
+    oracle): an effective set proposed at the anomaly, the rest of the run ideal."""
+
+    name = "effective-set"
+
+    def __init__(self, answer: str, inner: LLM) -> None:
+        self.answer = answer
+        self.inner = inner
+        self.used = False
+
+    def complete(self, request: Request) -> Response:
+        if request.tag == "goals" and not self.used:
+            self.used = True
+            return Response(self.answer, model=self.name)
+        try:
+            return self.inner.complete(request)
+        except Exception as e:  # the follow-up failed: the run ends unresolved, and says why
+            log.warning("the oracle could not answer after an effective set: %s", e)
+            return Response(f"(and) ; the oracle failed: {type(e).__name__}", model=self.name)
+
+
+def effective_issues(
+    task: SuiteTask, config: LoopConfig | None = None
+) -> tuple[list[Issue], list[Issue]]:
+    """Each effective set, proposed as the first answer at the first anomaly (no repairs, the
+    oracle answering any later anomaly): (issues, notes). An issue when the loop does not
+    accept it unchanged (modulo its search rewrite) or cannot plan it from the anomaly state;
+    a note when it is planned but the run then does not resolve the task (the loop's or the
+    planner's limits, or the set: worth a look, not an error)."""
+    config = config or LoopConfig()
+    probe = replace(config, method=replace(config.method, repairs=0))
+    places = task.search_places()
+    issues: list[Issue] = []
+    notes: list[Issue] = []
+    if not task.effective:
+        missing = Issue(task.source, "judge.effective", "missing: list the effective goal sets")
+        return [missing], []
+    for i, (text, literals) in enumerate(zip(task.effective, task.effective_sets(), strict=True)):
+        where = f"judge.effective[{i}]"
+
+        def factory(session: HouseholdSession, text: str = text) -> LLM:
+            return _FirstAnswer(text, household_oracle(session))
+
+        traced = run_traced(task, factory, probe)
+        result = traced.result
+        first = first_anomaly(result)
+        proposals = [r.proposal for r in result.rounds if r.proposal is not None]
+        if first is None or not proposals:
+            continue  # no anomaly: the oracle run reports it
+        lost = lost_object(first[1].constraint)
+        p = proposals[0]
+        want = {as_search(g, lost, places) for g in literals}
+        if not p.ok:
+            why = "; ".join(p.parse.errors) or p.parse.status.value
+            issues.append(Issue(task.source, where, f"{text}: rejected at the anomaly: {why}"))
+        elif {as_search(g, lost, places) for g in p.goals} != want:
+            shown = " ".join(map(str, p.goals))
+            issues.append(Issue(task.source, where, f"{text}: the loop changes it to {shown}"))
+        elif not result.success or not holds_in_truth(task.success, traced.world.truth):
+            why = result.message if not result.success else "the true final state disagrees"
+            notes.append(
+                Issue(task.source, where, f"{text}: planned, but the task is not resolved: {why}")
+            )
+    return issues, notes
+
+
+def replan_issues(task: SuiteTask, config: LoopConfig | None = None) -> tuple[str, list[Issue]]:
+    """The replan baseline's verdict on the task, and an issue when the task is marked
+    ``measures_llm`` but replanning the task alone resolves it."""
+    j = judge(task, Replan(task.scenario.goal), config or LoopConfig())
+    if task.measures_llm and j.success:
+        why = "the replan baseline (the task goal restated) resolves it: the cause is in the belief"
+        return j.verdict.value, [Issue(task.source, "judge.measures_llm", why)]
+    return j.verdict.value, []
+
+
 def check_task(task: SuiteTask, runs: Iterable[OracleRun], *, exact: bool = True) -> list[Issue]:
     """The mistakes the oracle runs of ``task`` showed (each once), and whether ``l_gt`` is the
     shortest resolution they found. ``exact``: the runs cover :data:`HASH_SEEDS`, so the
@@ -606,11 +782,11 @@ def check_task(task: SuiteTask, runs: Iterable[OracleRun], *, exact: bool = True
     return issues
 
 
-def _oracle_run_file(args: tuple[str, LoopConfig]) -> OracleRun:
+def _oracle_run_file(args: tuple[str, LoopConfig, bool]) -> OracleRun:
     """:func:`oracle_run` on a task file (module level: runs in a spawned process)."""
-    path, config = args
+    path, config, judge_sets = args
     try:
-        return oracle_run(load_task(path), config)
+        return oracle_run(load_task(path), config, judge_sets=judge_sets)
     except Exception as e:  # a crash in one task is reported, the others are still checked
         log.exception("checking %s failed", path)
         issue = Issue(path, "file", f"checking crashed: {type(e).__name__}: {e}")
@@ -623,6 +799,7 @@ def _runs_with_hash_seed(
     hash_seed: int,
     jobs: int,
     progress: Callable[[str], None] | None,
+    judge_sets: bool = False,
 ) -> list[OracleRun]:
     """Oracle runs of ``tasks`` in fresh processes with ``PYTHONHASHSEED=hash_seed``."""
     import multiprocessing
@@ -638,7 +815,7 @@ def _runs_with_hash_seed(
         with ProcessPoolExecutor(
             max_workers=jobs, mp_context=context, max_tasks_per_child=1
         ) as pool:
-            futures = [pool.submit(_oracle_run_file, (t.source, config)) for t in tasks]
+            futures = [pool.submit(_oracle_run_file, (t.source, config, judge_sets)) for t in tasks]
             runs = []
             for t, f in zip(tasks, futures, strict=True):
                 runs.append(f.result())
@@ -657,6 +834,8 @@ class Validation:
     tasks: tuple[SuiteTask, ...]
     issues: tuple[Issue, ...]
     checked: int  # files looked at
+    replan: Mapping[str, str] = field(default_factory=dict)  # task -> the replan verdict
+    notes: tuple[Issue, ...] = ()  # remarks that are not errors (effective sets)
 
     @property
     def ok(self) -> bool:
@@ -700,18 +879,22 @@ def validate_folder(
         if progress is not None:
             progress(path.stem)
     runs: dict[str, list[OracleRun]] = {t.source: [] for t in tasks}
-    if hash_seeds:
-        for seed in hash_seeds:
-            for r in _runs_with_hash_seed(tasks, config, seed, jobs, progress):
+    if hash_seeds:  # effective sets and the replan baseline: with the first hash seed
+        for k, seed in enumerate(hash_seeds):
+            for r in _runs_with_hash_seed(tasks, config, seed, jobs, progress, k == 0):
                 runs[r.source].append(r)
     else:
         for t in tasks:
-            runs[t.source].append(_oracle_run_file((t.source, config)))
+            runs[t.source].append(_oracle_run_file((t.source, config, True)))
             if progress is not None:
                 progress(t.name)
     exact = set(HASH_SEEDS) <= set(hash_seeds)
+    replan: dict[str, str] = {}
+    notes: list[Issue] = []
     for t in tasks:
         issues.extend(check_task(t, runs[t.source], exact=exact))
+        replan[t.name] = next((r.replan for r in runs[t.source] if r.replan), "")
+        notes.extend(n for r in runs[t.source] for n in r.notes if n not in notes)
     if expect_counts is None:
         expect_counts = folder.resolve() == SUITE_DIR.resolve()
     if expect_counts and len(tasks) == len(files):
@@ -721,7 +904,7 @@ def validate_folder(
                 issues.append(
                     Issue(str(folder), "judge.category", f"{have} {cat.value} tasks, expected {n}")
                 )
-    return Validation(tuple(tasks), tuple(issues), len(files))
+    return Validation(tuple(tasks), tuple(issues), len(files), replan, tuple(notes))
 
 
 __all__ = [
