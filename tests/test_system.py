@@ -163,7 +163,11 @@ def test_a_search_that_finds_nothing_goes_back_to_the_llm_with_the_place_marked(
     assert result.success, result.message
     second = llm.requests[-1].messages[-1].content
     assert "cube was not found on drawer1, table1_left, table1_right" in second
-    assert "places not searched yet for cube: table2_left, table2_right, drawer2" in second
+    # closed containers are places to search too (open, then look)
+    assert (
+        "places not searched yet for cube: table2_left, table2_right, microwave, fridge, drawer2"
+        in second
+    )
 
 
 def test_searched_places_and_rejected_goals_are_left_out_of_the_decoding() -> None:
