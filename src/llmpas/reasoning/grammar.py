@@ -101,10 +101,13 @@ def _atoms(rule: str, prefix: str, vocab: Vocabulary, exclude: set[Atom]) -> lis
 def skill_gbnf(calls: Mapping[str, Call], vocab: Vocabulary, reasoning: int = 200) -> str:
     """A GBNF grammar for one Inner-Monologue step: ``Robot thought: <one line>`` then
     ``Robot action: skill("arg", ...)`` calling one of ``calls`` with, at each argument, an object
-    the goal vocabulary allows where the skill's effect puts that argument."""
+    the goal vocabulary allows where the skill's effect puts that argument (skills whose effect
+    is not a goal predicate of the vocabulary are left out)."""
     if isinstance(reasoning, bool) or not isinstance(reasoning, int) or reasoning < 1:
         raise ValueError(f"reasoning must be a positive integer, got {reasoning!r}")
-    names = sorted(calls)
+    names = sorted(n for n in calls if calls[n].predicate in vocab.predicates)  # reachable goals
+    if not names:
+        raise ValueError("no skill makes a goal predicate of the vocabulary true")
     rules = [
         'root ::= "Robot thought: " reason "\\nRobot action: " call',
         f"reason ::= [^\\n]{{1,{reasoning}}}",
