@@ -25,12 +25,11 @@ from llmpas.planning import PlannerConfig
 from llmpas.planning.result import Plan
 from llmpas.reasoning.goals import Vocabulary
 from llmpas.reasoning.prompts import PromptTables
-from llmpas.worlds.api import RunOptions, believed_lost
+from llmpas.worlds.api import RunOptions
 from llmpas.worlds.household.decomposition import ExplorationConfig, build_specs
 from llmpas.worlds.household.layout import Layout
 from llmpas.worlds.household.problem import (
     Household,
-    believed_place,
     initial_belief,
     load_domain,
     make_problem,
@@ -38,10 +37,11 @@ from llmpas.worlds.household.problem import (
 from llmpas.worlds.household.reasoning import environment, prompt_tables, vocabulary
 from llmpas.worlds.household.scenario import Scenario, load_scenario
 from llmpas.worlds.household.sim import HouseholdWorld
+from llmpas.worlds.household.values import Placement
+from llmpas.worlds.kitchen.session import PLANNER, KitchenSearch, KitchenSession
 
 log = logging.getLogger(__name__)
 SCENARIOS = Path(__file__).parent / "scenarios"
-PLANNER = PlannerConfig(max_time=60.0)
 
 
 def scenario_path(name: str) -> Path:
@@ -74,14 +74,12 @@ def household_for(scenario: Scenario, layout: Layout | None = None) -> Household
 
 
 @dataclass(frozen=True)
-class HouseholdSearch:
+class HouseholdSearch(KitchenSearch):
     """Searching in the household: look at a table region, into a drawer, under a cover."""
 
     house: Household
     belief: Belief
-    predicate: str = "scanned"
-    location: str = "on"
-    detection: str = "Detected"
+    pose_type = Placement
 
     def places(self) -> tuple[str, ...]:
         return self.house.search_places(containers=True)
@@ -90,13 +88,12 @@ class HouseholdSearch:
         """The places a failed detection looked at: its ``view`` alternatives."""
         return tuple(sorted({v.strip("'") for v in report.explored.get("view", ())}))
 
-    def lost(self, obj: str) -> bool:
-        place = believed_place(self.belief, obj)
-        return obj in self.house.objects and believed_lost(self.belief, obj, place)
+    def knows(self, obj: str) -> bool:
+        return obj in self.house.objects
 
 
 @dataclass(frozen=True)
-class HouseholdSession:
+class HouseholdSession(KitchenSession):
     """One household scenario across planning rounds (the belief carries over)."""
 
     scenario: Scenario
@@ -122,18 +119,6 @@ class HouseholdSession:
         planner = options.planner or PLANNER
         executor = options.executor or ExecutorConfig()
         return cls(scenario, house, sim, seed, ctx, planner, executor, exploration)
-
-    @property
-    def name(self) -> str:
-        return self.scenario.name
-
-    @property
-    def task(self) -> str:
-        return self.scenario.goal
-
-    @property
-    def belief(self) -> Belief:
-        return self.context.belief
 
     @property
     def vocabulary(self) -> Vocabulary:

@@ -6,20 +6,7 @@ import itertools
 import math
 from dataclasses import dataclass
 
-
-@dataclass(frozen=True)
-class BaseConf:
-    """Where the mobile base stands: x, y (metres) and heading (radians)."""
-
-    x: float
-    y: float
-    theta: float
-
-    def distance(self, other: BaseConf) -> float:
-        return math.hypot(self.x - other.x, self.y - other.y)
-
-    def __str__(self) -> str:
-        return f"base({self.x:.2f},{self.y:.2f},{math.degrees(self.theta):.0f}deg)"
+from llmpas.worlds.kitchen.values import BaseConf, Grasp, check_phase
 
 
 @dataclass(frozen=True)
@@ -38,20 +25,6 @@ class Placement:
 
 
 @dataclass(frozen=True)
-class Grasp:
-    """How the gripper holds an object: from the top or from the front."""
-
-    kind: str  # "top" | "forward"
-
-    def __post_init__(self) -> None:
-        if self.kind not in ("top", "forward"):
-            raise ValueError(f"grasp kind must be 'top' or 'forward', got {self.kind!r}")
-
-    def __str__(self) -> str:
-        return f"{self.kind}-grasp"
-
-
-@dataclass(frozen=True)
 class ArmTarget:
     """Where the arm should bring the gripper: above/at a point, for a grasp kind.
 
@@ -65,8 +38,7 @@ class ArmTarget:
     phase: str = "at"
 
     def __post_init__(self) -> None:
-        if self.phase not in ("pre", "at"):
-            raise ValueError(f"phase must be 'pre' or 'at', got {self.phase!r}")
+        check_phase(self.phase)
 
 
 @dataclass(frozen=True)
@@ -79,3 +51,6 @@ class Motion:
     def length(self) -> float:
         w = self.waypoints
         return sum(a.distance(b) for a, b in itertools.pairwise(w))
+
+
+__all__ = ["ArmTarget", "BaseConf", "Grasp", "Motion", "Placement"]
