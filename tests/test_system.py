@@ -266,3 +266,25 @@ def test_loop_report_shows_rounds_prompts_answers_and_goals(tmp_path: Path) -> N
     assert "#### first-look: prompt" in text and "#### goals: answer" in text
     assert "### Reasoning (flp): (cleaned apple)" in text
     assert not list(tmp_path.rglob("*.tmp"))
+
+
+def test_a_task_the_anomaly_shows_done_ends_the_loop_without_asking() -> None:
+    llm = Scripted("(and (cleaned apple))")  # never asked: the apple turns out cooked already
+    result = run_loop("state-change-cooked", llm)
+    assert result.success and "the task holds" in result.message
+    assert not llm.requests and not any(r.proposal for r in result.rounds)
+
+
+@pytest.mark.parametrize(
+    ("scenario", "goals"),
+    [
+        ("object-loss-fridge", ["(scanned fridge)"]),  # a closed container: open, then look
+        ("state-change-hot", ["(cleaned bread)"]),
+        ("state-change-wet", ["(not (wet mug))"]),
+        ("lookalike-apple", ["(scanned drawer4)"]),
+    ],
+)
+def test_the_oracle_recovers_the_new_household_anomalies(scenario: str, goals: list[str]) -> None:
+    result = run_loop(scenario, ORACLE)
+    assert result.success, result.message
+    assert [str(g) for r in result.rounds if r.proposal for g in r.proposal.goals] == goals

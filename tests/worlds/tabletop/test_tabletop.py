@@ -163,3 +163,30 @@ def test_blocking_recovers_with_the_oracles_goals_and_a_replan(seed: int | None)
         assert session.achieved()
         at, _ = session.scene.pose("black_cube")
         assert session.scene.region_of(*at) == "table"
+
+
+# ------------------------------------------------------------ through the system's one loop
+
+CASSETTES = Path(__file__).parents[2] / "data" / "cassettes" / "qwen1.5b-tabletop"
+
+
+def test_the_cli_runs_the_tabletop_with_its_oracle(tmp_path: Path) -> None:
+    from llmpas.cli import main
+
+    assert main(["run", "tabletop-blocking", "--llm", "oracle", "--out", str(tmp_path)]) == 0
+    loop = json.loads((tmp_path / "loop.json").read_text())
+    assert loop["rounds"][0]["anomaly"]["constraint"] == "(not (full bowl))"
+    assert (tmp_path / "round-0" / "plan.xml").is_file() and (tmp_path / "episode.gif").is_file()
+
+
+def test_the_offline_models_recorded_answers_recover_the_tabletop() -> None:
+    """Qwen2.5-Coder-1.5B, recorded once with ``llmpas run tabletop-blocking --llm llama-cpp
+    --record``; replayed through :func:`llmpas.system.run` (a changed prompt fails)."""
+    from llmpas.reasoning.backends.replay import ReplayBackend
+    from llmpas.system import LoopSettings, run
+
+    llm = ReplayBackend(CASSETTES, mode="replay")
+    result = run(WORLD, "tabletop-blocking", llm, LoopSettings(), RunOptions(snapshots=False))
+    assert result.success, result.message  # judged in PyBullet's true state
+    proposal = next(r.proposal for r in result.rounds if r.proposal)
+    assert proposal.first_look and all(e.response.model for e in proposal.exchanges)

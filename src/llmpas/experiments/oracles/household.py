@@ -34,7 +34,7 @@ class Oracle:
         if atom.predicate == "open" and not negated:  # a closed drawer, where it was believed open
             return [atom]
         if atom.predicate == "full":
-            return [self._clear(atom.args[0])]
+            return self._clear(atom.args[0])
         if atom.predicate in ("dirty", "hot", "spilled"):
             return [Atom("cleaned", (atom.args[0],))]
         if atom.predicate in ("wet", "soaks"):
@@ -73,15 +73,18 @@ class Oracle:
             return Atom("holding", (obj,))
         return Atom("scanned", (truth.placements[obj].region,))
 
-    def _clear(self, region: str) -> Atom:
+    def _clear(self, region: str) -> list[Atom | Not]:
+        """The first object truly in ``region`` to the first free table region (nothing when
+        the region is truly empty by now: the occupant was taken out)."""
         truth = self.world.truth
-        blocker = sorted(truth.objects_in(region))[0]
-        free = next(
-            r
-            for r in sorted(self.world.layout.regions)
-            if self.world.layout.regions[r].kind == "surface" and not truth.objects_in(r)
-        )
-        return Atom("on", (blocker, free))
+        blockers = sorted(truth.objects_in(region))
+        regions = self.world.layout.regions
+        free = [
+            r for r in sorted(regions) if regions[r].kind == "surface" and not truth.objects_in(r)
+        ]
+        if not blockers or not free:
+            return []
+        return [Atom("on", (blockers[0], free[0]))]
 
 
 def oracle(session: HouseholdSession) -> Oracle:
