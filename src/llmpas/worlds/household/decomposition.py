@@ -115,18 +115,11 @@ class Builder(KitchenBuilder):
     def __post_init__(self) -> None:
         self.sem = Semantics(self.problem.domain, {}, {}, strict_costs=False)
 
-    def recipes(self) -> dict[str, Callable[[PlanStep], Recipe]]:
-        return {
-            **super().recipes(),
-            "scan_drawer": self.scan,
-            "scan_container": self.scan,
-            "scan_cover": self.scan_cover,
-            "open": self.open_close,
-            "close": self.open_close,
-        }
-
     def otherwise(self, step: PlanStep) -> Recipe:
         return self.process(step)
+
+    def scan_inside(self, step: PlanStep) -> Recipe:
+        return self.scan(step)
 
     # ---------------------------------------------------------------- shared pieces
     def _look(

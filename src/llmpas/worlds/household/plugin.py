@@ -73,23 +73,15 @@ def household_for(scenario: Scenario, layout: Layout | None = None) -> Household
     return Household(layout or scenario.layout, dict(scenario.specs))
 
 
-@dataclass(frozen=True)
-class HouseholdSearch(KitchenSearch):
-    """Searching in the household: look at a table region, into a drawer, under a cover."""
+def household_search(house: Household, belief: Belief) -> KitchenSearch:
+    """Searching in the household: look at a table region, into a drawer, a closed container,
+    under a cover; a failed detection looked at its ``view`` alternatives."""
 
-    house: Household
-    belief: Belief
-    pose_type = Placement
-
-    def places(self) -> tuple[str, ...]:
-        return self.house.search_places(containers=True)
-
-    def looked_at(self, report: AnomalyReport) -> tuple[str, ...]:
-        """The places a failed detection looked at: its ``view`` alternatives."""
+    def looked_at(report: AnomalyReport) -> tuple[str, ...]:
         return tuple(sorted({v.strip("'") for v in report.explored.get("view", ())}))
 
-    def knows(self, obj: str) -> bool:
-        return obj in self.house.objects
+    places = house.search_places(containers=True)
+    return KitchenSearch(belief, places, frozenset(house.objects), Placement, looked_at)
 
 
 @dataclass(frozen=True)
@@ -129,8 +121,8 @@ class HouseholdSession(KitchenSession):
         return prompt_tables(self.house)
 
     @property
-    def search(self) -> HouseholdSearch:
-        return HouseholdSearch(self.house, self.belief)
+    def search(self) -> KitchenSearch:
+        return household_search(self.house, self.belief)
 
     def problem(self, goal: Formula | str, index: int) -> Problem:
         rng = np.random.default_rng([self.seed, index, 1])
@@ -177,9 +169,9 @@ WORLD = HouseholdPlugin()
 __all__ = [
     "WORLD",
     "HouseholdPlugin",
-    "HouseholdSearch",
     "HouseholdSession",
     "belief_from",
     "household_for",
+    "household_search",
     "scenario_path",
 ]

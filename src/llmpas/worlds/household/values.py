@@ -3,22 +3,18 @@
 from __future__ import annotations
 
 import itertools
-import math
 from dataclasses import dataclass
 
-from llmpas.worlds.kitchen.values import BaseConf, Grasp, check_phase
+from llmpas.worlds.kitchen.values import BaseConf, Grasp, Planar, check_phase
 
 
 @dataclass(frozen=True)
-class Placement:
+class Placement(Planar):
     """Where an object rests: a region name and a position in it (x, y on the floor plane)."""
 
     region: str
     x: float
     y: float
-
-    def distance(self, other: Placement) -> float:
-        return math.hypot(self.x - other.x, self.y - other.y)
 
     def __str__(self) -> str:
         return f"{self.region}@({self.x:.2f},{self.y:.2f})"

@@ -1,8 +1,9 @@
 """What the kitchen worlds' plan decompositions share, on top of
 :class:`llmpas.execution.plan_builder.PlanBuilder`: the exploration budgets, the recipe table of
-the actions every kitchen world has (pick, place, scan_table and a base move), the base poses to
-look from, the grasp and base dimensions of a reach, the precondition check, the grasp skill,
-the scan and the plain base move. A world supplies how it drives, looks, picks and places.
+the kitchen domain's actions, the base poses to look from, the grasp and base dimensions of a
+reach, the precondition check, the grasp skill, the scan and the plain base move. A world
+supplies how it drives, looks, picks and places, and the recipes of the actions it has beyond
+those (an action it has none for gets :meth:`KitchenBuilder.otherwise`).
 """
 
 from __future__ import annotations
@@ -50,8 +51,21 @@ class KitchenBuilder(PlanBuilder):
         raise NotImplementedError
 
     def otherwise(self, step: PlanStep) -> Recipe:
-        """The recipe of an action no entry of :meth:`recipes` names."""
+        """The recipe of an action the world has no recipe of its own for (the processing
+        actions clean, cook, heat, cool and dry always come here)."""
         raise NotImplementedError
+
+    def scan_inside(self, step: PlanStep) -> Recipe:
+        """``scan_drawer`` and ``scan_container`` (default: :meth:`otherwise`)."""
+        return self.otherwise(step)
+
+    def scan_cover(self, step: PlanStep) -> Recipe:
+        """Lift a cover and look under it (default: :meth:`otherwise`)."""
+        return self.otherwise(step)
+
+    def open_close(self, step: PlanStep) -> Recipe:
+        """``open`` and ``close`` (default: :meth:`otherwise`)."""
+        return self.otherwise(step)
 
     def _go(self, name: str, key: str) -> SubAction:
         """Drive to the base pose of dimension ``key``."""
@@ -69,16 +83,20 @@ class KitchenBuilder(PlanBuilder):
     def forget_object(self, belief: Belief, obj: str) -> None:
         belief.rests_at(obj, None)
 
-    def recipes(self) -> dict[str, Callable[[PlanStep], Recipe]]:
-        return {
+    def recipe(self, step: PlanStep) -> Recipe:
+        """The recipe of a kitchen-domain action."""
+        recipes: dict[str, Callable[[PlanStep], Recipe]] = {
             "pick": self.pick,
             "place": self.place,
             "scan_table": self.scan,
+            "scan_drawer": self.scan_inside,
+            "scan_container": self.scan_inside,
+            "scan_cover": self.scan_cover,
+            "open": self.open_close,
+            "close": self.open_close,
             "move_base": self.move,
         }
-
-    def recipe(self, step: PlanStep) -> Recipe:
-        return self.recipes().get(step.action, self.otherwise)(step)
+        return recipes.get(step.action, self.otherwise)(step)
 
     def _check(self, step: PlanStep, *extra: Constraint) -> SubAction:
         """The step's precondition in the believed state (after ``extra`` constraints)."""

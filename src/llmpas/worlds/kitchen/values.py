@@ -6,8 +6,25 @@ import math
 from dataclasses import dataclass
 
 
+class Planar:
+    """A value with a position on the floor plane: ``x``, ``y`` (metres)."""
+
+    x: float
+    y: float
+
+    def distance(self, other: Planar) -> float:
+        """The distance on the floor plane (heights and headings aside)."""
+        return math.hypot(self.x - other.x, self.y - other.y)
+
+
+def require_finite(what: str, value: object, *numbers: float) -> None:
+    """A ValueError naming ``what`` and the value unless all ``numbers`` are finite."""
+    if not all(math.isfinite(v) for v in numbers):
+        raise ValueError(f"non-finite {what} {value}")
+
+
 @dataclass(frozen=True)
-class BaseConf:
+class BaseConf(Planar):
     """Where the mobile base stands: x, y (metres) and heading (radians)."""
 
     x: float
@@ -15,15 +32,11 @@ class BaseConf:
     theta: float
 
     def __post_init__(self) -> None:
-        if not all(math.isfinite(v) for v in (self.x, self.y, self.theta)):
-            raise ValueError(f"non-finite base configuration {self}")
+        require_finite("base configuration", self, self.x, self.y, self.theta)
 
     @property
     def pose(self) -> tuple[float, float, float]:
         return (self.x, self.y, self.theta)
-
-    def distance(self, other: BaseConf) -> float:
-        return math.hypot(self.x - other.x, self.y - other.y)
 
     def __str__(self) -> str:
         return f"base({self.x:.2f},{self.y:.2f},{math.degrees(self.theta):.0f}deg)"
@@ -52,4 +65,4 @@ def check_phase(phase: str) -> None:
         raise ValueError(f"phase must be 'pre' or 'at', got {phase!r}")
 
 
-__all__ = ["PHASES", "BaseConf", "Grasp", "check_phase"]
+__all__ = ["PHASES", "BaseConf", "Grasp", "Planar", "check_phase", "require_finite"]

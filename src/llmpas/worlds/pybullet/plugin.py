@@ -46,26 +46,19 @@ from llmpas.worlds.pybullet.values import BaseConf, ObjectPose
 from llmpas.worlds.pybullet.world import PyBulletWorld
 
 
-@dataclass(frozen=True)
-class TableSearch(KitchenSearch):
-    """Searching in the PyBullet world: drive to a table and look at it."""
+def table_search(config: SceneConfig, belief: Belief) -> KitchenSearch:
+    """Searching in the PyBullet world: drive to a table and look at it; a failed detection
+    looked at the table of the region it expected the object on (a bowl's table)."""
 
-    config: SceneConfig
-    belief: Belief
-    pose_type = ObjectPose
-
-    def places(self) -> tuple[str, ...]:
-        return tuple(t.name for t in self.config.tables)
-
-    def looked_at(self, report: AnomalyReport) -> tuple[str, ...]:
-        """The table a failed detection looked at (the region's, for a bowl)."""
+    def looked_at(report: AnomalyReport) -> tuple[str, ...]:
         c = report.constraint
         if not isinstance(c, Atom) or len(c.args) < 2:
             return ()
-        return (table_of(self.config, self.belief, c.args[1]),)
+        return (table_of(config, belief, c.args[1]),)
 
-    def knows(self, obj: str) -> bool:
-        return any(o.name == obj for o in self.config.objects)
+    tables = tuple(t.name for t in config.tables)
+    known = frozenset(o.name for o in config.objects)
+    return KitchenSearch(belief, tables, known, ObjectPose, looked_at)
 
 
 class PyBulletSession(KitchenSession):
@@ -101,7 +94,7 @@ class PyBulletSession(KitchenSession):
         self.domain: Domain = load_domain()
         self.vocabulary: Vocabulary = vocabulary(scenario.scene)
         self.prompts: PromptTables = prompt_tables(scenario.scene)
-        self.search = TableSearch(scenario.scene, belief)
+        self.search = table_search(scenario.scene, belief)
         self.rounds = 0  # the episode running (for the marks of snapshots)
         self.episodes = 0
         self.world.clock = lambda: (self.rounds, len(self.context.recorder.events))
@@ -161,4 +154,4 @@ class PyBulletPlugin:
 
 WORLD = PyBulletPlugin()
 
-__all__ = ["WORLD", "PyBulletPlugin", "PyBulletSession", "TableSearch"]
+__all__ = ["WORLD", "PyBulletPlugin", "PyBulletSession", "table_search"]

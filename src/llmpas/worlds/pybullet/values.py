@@ -9,11 +9,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from llmpas.worlds.kitchen.values import BaseConf, Grasp, check_phase
+from llmpas.worlds.kitchen.values import BaseConf, Grasp, Planar, check_phase, require_finite
 
 
 @dataclass(frozen=True)
-class ObjectPose:
+class ObjectPose(Planar):
     """Where an object rests: the region it is in (a table or a bowl) and its centre (world)."""
 
     region: str
@@ -22,11 +22,7 @@ class ObjectPose:
     z: float
 
     def __post_init__(self) -> None:
-        if not all(math.isfinite(v) for v in (self.x, self.y, self.z)):
-            raise ValueError(f"non-finite pose {self}")
-
-    def distance(self, other: ObjectPose) -> float:
-        return math.hypot(self.x - other.x, self.y - other.y)
+        require_finite("pose", self, self.x, self.y, self.z)
 
     def __str__(self) -> str:
         return f"{self.region}@({self.x:.2f},{self.y:.2f},{self.z:.2f})"

@@ -33,7 +33,7 @@ from llmpas.worlds.kitchen.reasoning import whereabouts
 from llmpas.worlds.kitchen.session import KitchenSession
 from llmpas.worlds.pybullet.decomposition import build_specs
 from llmpas.worlds.pybullet.motion import BaseChecker
-from llmpas.worlds.pybullet.plugin import TableSearch
+from llmpas.worlds.pybullet.plugin import table_search
 from llmpas.worlds.pybullet.problem import believed_pose, initial_belief, make_problem
 from llmpas.worlds.pybullet.reasoning import vocabulary as make_vocabulary
 from llmpas.worlds.pybullet.scene import TABLE_TOP, Rect, Scene, open_client
@@ -98,7 +98,7 @@ class TabletopSession(KitchenSession):
         self.context = Context(self.world, self.world, belief, np.random.default_rng([seed, 2]))
         self.planner = options.planner or PlannerConfig(max_time=60.0, seed=seed)
         self.executor = options.executor or ExecutorConfig()
-        self.search = TableSearch(scenario.scene, belief)  # searching is looking at a table
+        self.search = table_search(scenario.scene, belief)  # searching is looking at a table
         self.domain: Domain = load_domain()
         self.vocabulary: Vocabulary = make_vocabulary(scenario.scene)
         self.prompts: PromptTables = prompt_tables(scenario.scene)
