@@ -16,12 +16,12 @@ which region of the furniture to look at, the grasp, the base pose to act from.
 from __future__ import annotations
 
 import itertools
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 from llmpas.execution.context import Belief, Context
 from llmpas.execution.csubbt import Constraint, SubAction, SubtreeSpec, Values
-from llmpas.execution.plan_builder import PlanBuilder, Recipe, failing_literal
+from llmpas.execution.plan_builder import Recipe, failing_literal
 from llmpas.execution.space import Dimension
 from llmpas.execution.world import Observation, SkillResult
 from llmpas.language.logic import Atom, Not
@@ -36,6 +36,7 @@ from llmpas.worlds.household.problem import (
 )
 from llmpas.worlds.household.state import PROPERTIES, VISIBLE
 from llmpas.worlds.household.values import ArmTarget, BaseConf, Grasp, Motion, Placement
+from llmpas.worlds.kitchen.decomposition import OK, ExplorationConfig, KitchenBuilder
 
 BASE_ACTIONS = (
     "pick",
@@ -49,17 +50,6 @@ BASE_ACTIONS = (
 )
 FADES = frozenset(VISIBLE - {"cleaned", "cooked", "heated", "cooled"})
 """Visible states that a look without them shows gone (seen clean, dry, whole)."""
-OK = SkillResult.success()
-
-
-@dataclass(frozen=True)
-class ExplorationConfig:
-    """Budgets of the constraint-space exploration (per subtree)."""
-
-    view_bases: int = 3  # base poses to look from
-    grasps: int = 2
-    base_samples: int = 3  # base poses to act from, per grasp
-    max_samples: int = 40  # values drawn over a whole subtree
 
 
 # --------------------------------------------------------------------------- belief updates
@@ -113,43 +103,25 @@ def _believe_seen(belief: Belief, house: Household, obj: str, place: Placement) 
 
 
 @dataclass
-class Builder(PlanBuilder):
+class Builder(KitchenBuilder):
     """Builds the subtree specs of one plan, for one household and problem."""
 
     house: Household
     problem: Problem
     plan: Plan
-    config: ExplorationConfig
+    exploration: ExplorationConfig
     merged = BASE_ACTIONS
 
     def __post_init__(self) -> None:
         self.sem = Semantics(self.problem.domain, {}, {}, strict_costs=False)
 
-    @property
-    def max_samples(self) -> int:
-        return self.config.max_samples
+    def otherwise(self, step: PlanStep) -> Recipe:
+        return self.process(step)
 
-    def forget_object(self, belief: Belief, obj: str) -> None:
-        believe_at(belief, obj, None)
-
-    def recipe(self, step: PlanStep) -> Recipe:
-        recipes: dict[str, Callable[[PlanStep], Recipe]] = {
-            "pick": self.pick,
-            "place": self.place,
-            "scan_table": self.scan,
-            "scan_drawer": self.scan,
-            "scan_container": self.scan,
-            "scan_cover": self.scan_cover,
-            "open": self.open_close,
-            "close": self.open_close,
-            "move_base": self.move,
-        }
-        return recipes.get(step.action, self.process)(step)
+    def scan_inside(self, step: PlanStep) -> Recipe:
+        return self.scan(step)
 
     # ---------------------------------------------------------------- shared pieces
-    def _check(self, step: PlanStep, *extra: Constraint) -> SubAction:
-        return SubAction("check", lambda v, c: OK, constraints=(*extra, self._precondition(step)))
-
     def _look(
         self,
         region_of: Callable[[Values, Context], str],
@@ -194,25 +166,6 @@ class Builder(PlanBuilder):
             return None
         out = next(self._stream("plan-base-motion", (here, target)), None)
         return None if out is not None else f"no collision-free drive to {target}"
-
-    def _view_bases(self, region: Callable[[Values], str]) -> Dimension:
-        def sample(v: Values) -> Iterator[BaseConf]:
-            yield from self._stream("sample-view", (region(v),))
-
-        return Dimension("view_base", sample, budget=self.config.view_bases, describe=str)
-
-    def _reach_dims(
-        self, obj: str, where: Callable[[Values], Placement], kinds: Iterable[str]
-    ) -> tuple[Dimension, ...]:
-        grasps = [Grasp(k) for k in kinds]
-
-        def bases(v: Values) -> Iterator[BaseConf]:
-            yield from self._stream("inverse-kinematics", (obj, where(v), v["grasp"]))
-
-        return (
-            Dimension("grasp", lambda v: grasps, budget=self.config.grasps, describe=str),
-            Dimension("base", bases, budget=self.config.base_samples, describe=str),
-        )
 
     def _arm(self, name: str, where: Callable[[Values], Placement], phase: str) -> SubAction:
         def run(v: Values, ctx: Context) -> SkillResult:
@@ -297,23 +250,11 @@ class Builder(PlanBuilder):
         obj, region = step.args[0], step.args[2]
         dims, subs = self._locate(obj, region)
         kinds = ["top"] if self.house.objects[obj].cover else ["top", "forward"]
-        grasped = Constraint(
-            "Grasped",
-            lambda v, c: None,
-            lambda v: Atom("holding", (obj,)),
-            needs=("grasp",),
-            culprits=("grasp",),
-        )
         return dims + self._reach_dims(obj, lambda v: v["detected"], kinds), (
             *subs,
             self._check(step),
             *self._approach(lambda v: v["detected"]),
-            SubAction(
-                "grasp",
-                lambda v, c: c.robot.grasp(obj, v["grasp"]),
-                needs=("grasp",),
-                on_failure=grasped,
-            ),
+            self._grasp(obj, culprits=("grasp",)),
         )
 
     def place(self, step: PlanStep) -> Recipe:
@@ -386,7 +327,7 @@ class Builder(PlanBuilder):
 
     def scan(self, step: PlanStep) -> Recipe:
         region = step.args[0]
-        check = self._check(step)
+        check = None
         if step.action == "scan_container":  # (searched R) is the goal's, not the belief's
             pre = self._precondition(step)
             target = Atom("searched", (region,))
@@ -403,11 +344,7 @@ class Builder(PlanBuilder):
             check = SubAction(
                 "check", lambda v, c: OK, constraints=(Constraint(pre.name, searched, pre.atom),)
             )
-        return (self._view_bases(lambda v: region),), (
-            self._go("go_look", "view_base"),
-            check,
-            self._look(lambda v, c: region),
-        )
+        return self._scan(step, check)
 
     def scan_cover(self, step: PlanStep) -> Recipe:
         cover, region = step.args[0], step.args[2]
@@ -416,7 +353,9 @@ class Builder(PlanBuilder):
         def put_bases(v: Values) -> Iterator[BaseConf]:
             yield from self._stream("inverse-kinematics", (cover, v["beside"], v["grasp"]))
 
-        put_base = Dimension("put_base", put_bases, budget=self.config.base_samples, describe=str)
+        put_base = Dimension(
+            "put_base", put_bases, budget=self.exploration.base_samples, describe=str
+        )
         lower = Constraint(
             "Kin",
             lambda v, ctx: self._reach_check(v["beside"], v["put_base"]),
@@ -528,17 +467,6 @@ class Builder(PlanBuilder):
             self._check(step),
             SubAction(step.action, run, on_failure=blocked),
         )
-
-    def move(self, step: PlanStep) -> Recipe:
-        q2 = step.args[1]
-
-        def target(v: Values) -> Iterator[BaseConf]:
-            value = self.plan.objects.get(q2) or self.problem.objects.get(q2)
-            if isinstance(value, BaseConf):
-                yield value
-
-        dims = (Dimension("base", target, budget=1, describe=str),)
-        return dims, (self._go("move_base", "base"),)
 
 
 def build_specs(

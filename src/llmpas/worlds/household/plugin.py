@@ -25,12 +25,11 @@ from llmpas.planning import PlannerConfig
 from llmpas.planning.result import Plan
 from llmpas.reasoning.goals import Vocabulary
 from llmpas.reasoning.prompts import PromptTables
-from llmpas.worlds.api import RunOptions, believed_lost
+from llmpas.worlds.api import RunOptions
 from llmpas.worlds.household.decomposition import ExplorationConfig, build_specs
 from llmpas.worlds.household.layout import Layout
 from llmpas.worlds.household.problem import (
     Household,
-    believed_place,
     initial_belief,
     load_domain,
     make_problem,
@@ -38,10 +37,11 @@ from llmpas.worlds.household.problem import (
 from llmpas.worlds.household.reasoning import environment, prompt_tables, vocabulary
 from llmpas.worlds.household.scenario import Scenario, load_scenario
 from llmpas.worlds.household.sim import HouseholdWorld
+from llmpas.worlds.household.values import Placement
+from llmpas.worlds.kitchen.session import PLANNER, KitchenSearch, KitchenSession
 
 log = logging.getLogger(__name__)
 SCENARIOS = Path(__file__).parent / "scenarios"
-PLANNER = PlannerConfig(max_time=60.0)
 
 
 def scenario_path(name: str) -> Path:
@@ -73,30 +73,19 @@ def household_for(scenario: Scenario, layout: Layout | None = None) -> Household
     return Household(layout or scenario.layout, dict(scenario.specs))
 
 
-@dataclass(frozen=True)
-class HouseholdSearch:
-    """Searching in the household: look at a table region, into a drawer, under a cover."""
+def household_search(house: Household, belief: Belief) -> KitchenSearch:
+    """Searching in the household: look at a table region, into a drawer, a closed container,
+    under a cover; a failed detection looked at its ``view`` alternatives."""
 
-    house: Household
-    belief: Belief
-    predicate: str = "scanned"
-    location: str = "on"
-    detection: str = "Detected"
-
-    def places(self) -> tuple[str, ...]:
-        return self.house.search_places(containers=True)
-
-    def looked_at(self, report: AnomalyReport) -> tuple[str, ...]:
-        """The places a failed detection looked at: its ``view`` alternatives."""
+    def looked_at(report: AnomalyReport) -> tuple[str, ...]:
         return tuple(sorted({v.strip("'") for v in report.explored.get("view", ())}))
 
-    def lost(self, obj: str) -> bool:
-        place = believed_place(self.belief, obj)
-        return obj in self.house.objects and believed_lost(self.belief, obj, place)
+    places = house.search_places(containers=True)
+    return KitchenSearch(belief, places, frozenset(house.objects), Placement, looked_at)
 
 
 @dataclass(frozen=True)
-class HouseholdSession:
+class HouseholdSession(KitchenSession):
     """One household scenario across planning rounds (the belief carries over)."""
 
     scenario: Scenario
@@ -124,18 +113,6 @@ class HouseholdSession:
         return cls(scenario, house, sim, seed, ctx, planner, executor, exploration)
 
     @property
-    def name(self) -> str:
-        return self.scenario.name
-
-    @property
-    def task(self) -> str:
-        return self.scenario.goal
-
-    @property
-    def belief(self) -> Belief:
-        return self.context.belief
-
-    @property
     def vocabulary(self) -> Vocabulary:
         return vocabulary(self.house)
 
@@ -144,8 +121,8 @@ class HouseholdSession:
         return prompt_tables(self.house)
 
     @property
-    def search(self) -> HouseholdSearch:
-        return HouseholdSearch(self.house, self.belief)
+    def search(self) -> KitchenSearch:
+        return household_search(self.house, self.belief)
 
     def problem(self, goal: Formula | str, index: int) -> Problem:
         rng = np.random.default_rng([self.seed, index, 1])
@@ -192,9 +169,9 @@ WORLD = HouseholdPlugin()
 __all__ = [
     "WORLD",
     "HouseholdPlugin",
-    "HouseholdSearch",
     "HouseholdSession",
     "belief_from",
     "household_for",
+    "household_search",
     "scenario_path",
 ]

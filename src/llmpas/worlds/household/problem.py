@@ -8,7 +8,6 @@ from __future__ import annotations
 
 from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -18,7 +17,8 @@ from llmpas.language.problem import Problem, parse_formula
 from llmpas.worlds.household.layout import Layout, ObjectSpec
 from llmpas.worlds.household.streams import DEFAULT_DEFERRED, make_streams
 from llmpas.worlds.household.values import BaseConf, Placement
-from llmpas.worlds.kitchen import load_domain, load_streams
+from llmpas.worlds.kitchen import load_domain
+from llmpas.worlds.kitchen.problem import kitchen_problem, start_belief
 
 PROCESS_PREDICATE = {"clean": "Sink", "cook": "Stove", "heat": "Microwave", "cool": "Fridge"}
 PROPERTY_PREDICATE = {
@@ -111,16 +111,7 @@ def initial_belief(
 ) -> Belief:
     """The robot's belief at the start: where it thinks objects are, what is open, its base,
     the places it has already searched (``(scanned P)``) and the doors it knows are jammed."""
-    belief = Belief(house.static_facts(), {})
-    for obj, place in places.items():
-        believe_at(belief, obj, place)
-    q = belief.name("q0", base)
-    belief.facts |= {
-        Atom("bconf", (q,)),
-        Atom("atbconf", (q,)),
-        Atom("handempty", ()),
-        Atom("canmove", ()),
-    }
+    belief = start_belief(house.static_facts(), places, base)
     belief.facts |= {Atom("open", (r,)) for r in open_regions}
     for obj, props in (properties or {}).items():
         belief.facts |= {Atom(PROPERTY_PREDICATE[p].lower(), (obj,)) for p in props}
@@ -182,20 +173,10 @@ def make_problem(
     domain = load_domain()
     facts = set(belief.facts) | capacity_facts(house, belief) | blocking_facts(house, belief)
     facts |= search_facts(house, goal if not isinstance(goal, str) else parse_formula(goal, domain))
-    used = {t for a in facts for t in a.args}
-    values: dict[str, Any] = {n: v for n, v in belief.values.items() if n in used}
     streams = make_streams(
         house.layout, house.objects, lambda o: believed_place(belief, o), rng, deferred
     )
-    return Problem.create(
-        domain,
-        load_streams(),
-        init=sorted(facts),
-        goal=goal,
-        implementations=streams,
-        objects=values,
-        name="household",
-    )
+    return kitchen_problem(facts, belief, goal, streams, "household", domain)
 
 
 def search_facts(house: Household, goal: Formula) -> set[Atom]:

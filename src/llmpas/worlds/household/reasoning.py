@@ -13,6 +13,7 @@ from llmpas.reasoning.goals import Vocabulary
 from llmpas.reasoning.program import Call
 from llmpas.reasoning.prompts import PromptTables
 from llmpas.worlds.household.problem import Household, believed_place
+from llmpas.worlds.kitchen.reasoning import CALLS, whereabouts
 
 ACTIONS = {
     "pick": ("pick up an object from where it rests (the hand must be empty)", ("holding",)),
@@ -61,9 +62,7 @@ PREDICATES = {
 
 PROGRAM_CALLS = MappingProxyType(
     {
-        "pick": Call(("obj",), "holding", (0,)),
-        "place": Call(("obj", "region"), "on", (0, 1)),
-        "scan_table": Call(("region",), "scanned", (0,)),
+        **CALLS,
         "scan_drawer": Call(("drawer",), "scanned", (0,)),
         "scan_cover": Call(("cover",), "scanned", (0,)),
         "scan_container": Call(("container",), "scanned", (0,)),
@@ -117,9 +116,7 @@ def environment(house: Household, belief: Belief) -> str:
         props = sorted(
             a.predicate for a in belief.facts if a.args == (obj,) and a.predicate in STATES
         )
-        where = (
-            "held by the robot" if held else f"on {place.region}" if place else "location unknown"
-        )
+        where = whereabouts(belief, obj, place)
         if place is None and not held and not _mentioned(belief, obj):
             continue
         lines.append(f"- {obj}: {where}" + (f" ({', '.join(props)})" if props else ""))

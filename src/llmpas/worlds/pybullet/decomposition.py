@@ -10,41 +10,39 @@ approaches and grasps (or releases).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from llmpas.execution.context import Belief, Context
 from llmpas.execution.csubbt import Constraint, SubAction, SubtreeSpec, Values
-from llmpas.execution.plan_builder import PlanBuilder, Recipe
+from llmpas.execution.plan_builder import Recipe
 from llmpas.execution.space import Dimension
 from llmpas.execution.world import Observation, SkillResult
 from llmpas.language.logic import Atom
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics
 from llmpas.planning.result import Plan, PlanStep
+from llmpas.worlds.kitchen.decomposition import OK, KitchenBuilder
+from llmpas.worlds.kitchen.decomposition import ExplorationConfig as KitchenExploration
 from llmpas.worlds.pybullet.problem import believe_at, believed_pose
 from llmpas.worlds.pybullet.scene import TABLE_TOP, SceneConfig
-from llmpas.worlds.pybullet.values import ArmGoal, BaseConf, BasePath, Grasp, ObjectPose
+from llmpas.worlds.pybullet.values import ArmGoal, BaseConf, BasePath, ObjectPose
 
-OK = SkillResult.success()
 MERGED = ("pick", "place", "scan_table")
 
 
 @dataclass(frozen=True)
-class ExplorationConfig:
-    view_bases: int = 3  # base poses to look from (the search around the table)
-    grasps: int = 2
-    base_samples: int = 3
-    max_samples: int = 40
+class ExplorationConfig(KitchenExploration):
+    """The kitchen budgets, and how the PyBullet robot releases and searches."""
+
     drop: float = 0.02  # release this far above the resting height
     # how to look for an object at each base pose of the search: the mast, then the raised arm
     cameras: tuple[str, ...] = ("mast", "arm")
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         if not self.cameras or not set(self.cameras) <= {"mast", "arm"}:
             raise ValueError(f"cameras must be a non-empty subset of mast/arm: {self.cameras}")
-        if min(self.view_bases, self.grasps, self.base_samples, self.max_samples) < 1:
-            raise ValueError("exploration budgets must be >= 1")
         if self.drop < 0:
             raise ValueError("drop must be >= 0")
 
@@ -72,8 +70,10 @@ def observe(belief: Belief, config: SceneConfig, obs: Observation) -> None:
         believe_at(belief, d.obj, d.pose)
 
 
-class Builder(PlanBuilder):
+class Builder(KitchenBuilder):
     merged = MERGED
+    fit_grasp_budget = True
+    exploration: ExplorationConfig
 
     def __init__(
         self, config: SceneConfig, problem: Problem, plan: Plan, exploration: ExplorationConfig
@@ -81,41 +81,23 @@ class Builder(PlanBuilder):
         self.config = config
         self.problem = problem
         self.plan = plan
-        self.x = exploration
+        self.exploration = exploration
         self.sem = Semantics(problem.domain, {}, {}, strict_costs=False)
-
-    @property
-    def max_samples(self) -> int:
-        return self.x.max_samples
-
-    def forget_object(self, belief: Belief, obj: str) -> None:
-        believe_at(belief, obj, None)
-
-    def recipe(self, step: PlanStep) -> Recipe:
-        recipes: dict[str, Callable[[PlanStep], Recipe]] = {
-            "pick": self.pick,
-            "place": self.place,
-            "scan_table": self.scan,
-            "move_base": self.move,
-        }
-        return recipes.get(step.action, self.unsupported)(step)
 
     def after_step(self, step: PlanStep, v: Values, ctx: Context) -> None:
         """A placed object rests where it was released, a little below the spot."""
         if step.action == "place" and isinstance(v.get("spot"), ObjectPose):
             spot: ObjectPose = v["spot"]
-            rest = ObjectPose(spot.region, spot.x, spot.y, spot.z - self.x.drop)
+            rest = ObjectPose(spot.region, spot.x, spot.y, spot.z - self.exploration.drop)
             ctx.belief.values[step.args[1]] = rest
 
-    # ------------------------------------------------------------------ specs
+    def otherwise(self, step: PlanStep) -> Recipe:
+        def run(v: Values, c: Context) -> SkillResult:
+            return SkillResult.failure(f"{step.action} is not supported in the PyBullet world")
+
+        return (), (SubAction(step.action, run),)
 
     # ------------------------------------------------------------------ pieces
-
-    def _view_dim(self, region: str) -> Dimension:
-        def sample(v: Values) -> Iterator[BaseConf]:
-            yield from self._stream("sample-view", (region,))
-
-        return Dimension("view_base", sample, budget=self.x.view_bases, describe=str)
 
     def _go(self, name: str, key: str) -> SubAction:
         def plan(v: Values, ctx: Context) -> BasePath | None:
@@ -170,21 +152,6 @@ class Builder(PlanBuilder):
         needs = ("view_base", "camera") if search else ("view_base",)
         return SubAction("look", run, needs=needs)
 
-    def _reach_dims(
-        self, obj: str, where: Callable[[Values], ObjectPose], kinds: list[str]
-    ) -> tuple[Dimension, ...]:
-        grasps = [Grasp(k) for k in kinds]
-
-        def bases(v: Values) -> Iterator[BaseConf]:
-            yield from self._stream("inverse-kinematics", (obj, where(v), v["grasp"]))
-
-        return (
-            Dimension(
-                "grasp", lambda v: grasps, budget=min(self.x.grasps, len(grasps)), describe=str
-            ),
-            Dimension("base", bases, budget=self.x.base_samples, describe=str),
-        )
-
     def _arm(
         self, name: str, where: Callable[[Values], ObjectPose], phase: str, obj: str
     ) -> SubAction:
@@ -229,14 +196,14 @@ class Builder(PlanBuilder):
             lambda v: Atom("on", (obj, region)),
             needs=("view_base", "camera"),
         )
-        grasped = Constraint(
-            "Grasped", lambda v, c: None, lambda v: Atom("holding", (obj,)), needs=("grasp",)
-        )
         cameras = Dimension(
-            "camera", lambda v: list(self.x.cameras), budget=len(self.x.cameras), describe=str
+            "camera",
+            lambda v: list(self.exploration.cameras),
+            budget=len(self.exploration.cameras),
+            describe=str,
         )
         dims = (
-            self._view_dim(region),
+            self._view_bases(lambda v: region),
             cameras,
             *self._reach_dims(obj, lambda v: v["detected"], ["top", "forward"]),
         )
@@ -244,17 +211,12 @@ class Builder(PlanBuilder):
             self._go("go_look", "view_base"),
             self._look(look_region, search=True),
             SubAction("locate", lambda v, c: OK, constraints=(found,)),
-            SubAction("check", lambda v, c: OK, constraints=(self._precondition(step),)),
+            self._check(step),
             self._go("pre_approach_base", "base"),
             self._arm("pre_approach", lambda v: v["detected"], "pre", obj),
             SubAction("correct", correct),
             self._arm("approach", lambda v: v["detected"], "at", obj),
-            SubAction(
-                "grasp",
-                lambda v, c: c.robot.grasp(obj, v["grasp"]),
-                needs=("grasp",),
-                on_failure=grasped,
-            ),
+            self._grasp(obj),
         )
 
     def place(self, step: PlanStep) -> Recipe:
@@ -271,23 +233,28 @@ class Builder(PlanBuilder):
                 at = believed_pose(ctx.belief, region)
                 if at is None:
                     return f"{region} is nowhere the robot knows"
-                z = TABLE_TOP + 0.01 + size / 2 + self.x.drop
+                z = TABLE_TOP + 0.01 + size / 2 + self.exploration.drop
                 ctx.perceive("spot", ObjectPose(region, at.x, at.y, z))
                 return None
             if not isinstance(planned, ObjectPose):
                 return f"no placement for {obj} on {region}"
-            ctx.perceive("spot", ObjectPose(region, planned.x, planned.y, planned.z + self.x.drop))
+            ctx.perceive(
+                "spot", ObjectPose(region, planned.x, planned.y, planned.z + self.exploration.drop)
+            )
             return None
 
         spot = Constraint("Located", find_spot, lambda v: Atom("region", (region,)))
         released = Constraint(
             "Released", lambda v, c: None, lambda v: Atom("on", (obj, region)), needs=("base",)
         )
-        dims = (self._view_dim(region), *self._reach_dims(obj, lambda v: v["spot"], ["top"]))
+        dims = (
+            self._view_bases(lambda v: region),
+            *self._reach_dims(obj, lambda v: v["spot"], ["top"]),
+        )
         return dims, (
             self._go("go_look", "view_base"),
             self._look(look_region),
-            SubAction("check", lambda v, c: OK, constraints=(spot, self._precondition(step))),
+            self._check(step, spot),
             self._go("pre_approach_base", "base"),
             self._arm("pre_approach", lambda v: v["spot"], "pre", obj),
             self._arm("approach", lambda v: v["spot"], "at", obj),
@@ -298,34 +265,6 @@ class Builder(PlanBuilder):
                 on_failure=released,
             ),
         )
-
-    def scan(self, step: PlanStep) -> Recipe:
-        region = step.args[0]
-        return (self._view_dim(region),), (
-            self._go("go_look", "view_base"),
-            SubAction("check", lambda v, c: OK, constraints=(self._precondition(step),)),
-            self._look(lambda v, c: region),
-        )
-
-    def move(self, step: PlanStep) -> Recipe:
-        q2 = step.args[1]
-
-        def target(v: Values) -> Iterator[BaseConf]:
-            value = self.plan.objects.get(q2) or self.problem.objects.get(q2)
-            if isinstance(value, BaseConf):
-                yield value
-
-        return (Dimension("base", target, budget=1, describe=str),), (
-            self._go("move_base", "base"),
-        )
-
-    def unsupported(self, step: PlanStep) -> Recipe:
-        def run(v: Values, c: Context) -> SkillResult:
-            return SkillResult.failure(f"{step.action} is not supported in the PyBullet world")
-
-        return (), (SubAction(step.action, run),)
-
-    # ------------------------------------------------------------------ belief updates
 
 
 def build_specs(

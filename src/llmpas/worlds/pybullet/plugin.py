@@ -21,15 +21,15 @@ from llmpas.execution.executor import ExecutorConfig
 from llmpas.language.domain import Domain
 from llmpas.language.logic import Atom, Formula
 from llmpas.language.problem import Problem
-from llmpas.planning import PlannerConfig
 from llmpas.planning.result import Plan
 from llmpas.reasoning.goals import Vocabulary
 from llmpas.reasoning.prompts import PromptTables
-from llmpas.worlds.api import RunOptions, believed_lost
+from llmpas.worlds.api import RunOptions
 from llmpas.worlds.kitchen import load_domain
+from llmpas.worlds.kitchen.session import PLANNER, KitchenSearch, KitchenSession
 from llmpas.worlds.pybullet.camera import CameraConfig
 from llmpas.worlds.pybullet.decomposition import ExplorationConfig, build_specs, table_of
-from llmpas.worlds.pybullet.problem import believed_pose, make_problem
+from llmpas.worlds.pybullet.problem import make_problem
 from llmpas.worlds.pybullet.reasoning import environment, prompt_tables, vocabulary
 from llmpas.worlds.pybullet.run import (
     Scenario,
@@ -42,39 +42,29 @@ from llmpas.worlds.pybullet.run import (
 )
 from llmpas.worlds.pybullet.scene import Scene, SceneConfig, open_client
 from llmpas.worlds.pybullet.streams import Geometry
-from llmpas.worlds.pybullet.values import BaseConf
+from llmpas.worlds.pybullet.values import BaseConf, ObjectPose
 from llmpas.worlds.pybullet.world import PyBulletWorld
 
-PLANNER = PlannerConfig(max_time=60.0)
 
+def table_search(config: SceneConfig, belief: Belief) -> KitchenSearch:
+    """Searching in the PyBullet world: drive to a table and look at it; a failed detection
+    looked at the table of the region it expected the object on (a bowl's table)."""
 
-@dataclass(frozen=True)
-class TableSearch:
-    """Searching in the PyBullet world: drive to a table and look at it."""
-
-    config: SceneConfig
-    belief: Belief
-    predicate: str = "scanned"
-    location: str = "on"
-    detection: str = "Detected"
-
-    def places(self) -> tuple[str, ...]:
-        return tuple(t.name for t in self.config.tables)
-
-    def looked_at(self, report: AnomalyReport) -> tuple[str, ...]:
-        """The table a failed detection looked at (the region's, for a bowl)."""
+    def looked_at(report: AnomalyReport) -> tuple[str, ...]:
         c = report.constraint
         if not isinstance(c, Atom) or len(c.args) < 2:
             return ()
-        return (table_of(self.config, self.belief, c.args[1]),)
+        return (table_of(config, belief, c.args[1]),)
 
-    def lost(self, obj: str) -> bool:
-        known = any(o.name == obj for o in self.config.objects)
-        return known and believed_lost(self.belief, obj, believed_pose(self.belief, obj))
+    tables = tuple(t.name for t in config.tables)
+    known = frozenset(o.name for o in config.objects)
+    return KitchenSearch(belief, tables, known, ObjectPose, looked_at)
 
 
-class PyBulletSession:
+class PyBulletSession(KitchenSession):
     """One scenario's simulation, belief and execution context, across planning rounds."""
+
+    scenario: Scenario
 
     def __init__(
         self, scenario: Scenario, plugin: PyBulletPlugin, options: RunOptions, client: int
@@ -104,22 +94,10 @@ class PyBulletSession:
         self.domain: Domain = load_domain()
         self.vocabulary: Vocabulary = vocabulary(scenario.scene)
         self.prompts: PromptTables = prompt_tables(scenario.scene)
-        self.search = TableSearch(scenario.scene, belief)
+        self.search = table_search(scenario.scene, belief)
         self.rounds = 0  # the episode running (for the marks of snapshots)
         self.episodes = 0
         self.world.clock = lambda: (self.rounds, len(self.context.recorder.events))
-
-    @property
-    def name(self) -> str:
-        return self.scenario.name
-
-    @property
-    def task(self) -> str:
-        return self.scenario.goal
-
-    @property
-    def belief(self) -> Belief:
-        return self.context.belief
 
     def sync_base(self) -> None:
         """Believe the base is where odometry says (after a failed subtree drove around)."""
@@ -176,4 +154,4 @@ class PyBulletPlugin:
 
 WORLD = PyBulletPlugin()
 
-__all__ = ["WORLD", "PyBulletPlugin", "PyBulletSession", "TableSearch"]
+__all__ = ["WORLD", "PyBulletPlugin", "PyBulletSession", "table_search"]

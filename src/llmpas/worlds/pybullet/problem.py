@@ -7,14 +7,13 @@ The domain and stream declarations are the kitchen's (``kitchen/domain.pddl`` an
 from __future__ import annotations
 
 from collections.abc import Collection, Mapping
-from typing import Any
 
 import numpy as np
 
 from llmpas.execution.context import Belief
 from llmpas.language.logic import Atom, Formula
 from llmpas.language.problem import Problem
-from llmpas.worlds.kitchen import load_domain, load_streams
+from llmpas.worlds.kitchen.problem import kitchen_problem, start_belief
 from llmpas.worlds.pybullet.scene import SceneConfig
 from llmpas.worlds.pybullet.streams import DEFAULT_DEFERRED, Geometry, make_streams
 from llmpas.worlds.pybullet.values import BaseConf, ObjectPose
@@ -57,17 +56,7 @@ def believed_base(belief: Belief) -> BaseConf | None:
 def initial_belief(
     config: SceneConfig, poses: Mapping[str, ObjectPose | None], base: BaseConf
 ) -> Belief:
-    belief = Belief(static_facts(config), {})
-    for obj, pose in poses.items():
-        believe_at(belief, obj, pose)
-    q = belief.name("q0", base)
-    belief.facts |= {
-        Atom("bconf", (q,)),
-        Atom("atbconf", (q,)),
-        Atom("handempty", ()),
-        Atom("canmove", ()),
-    }
-    return belief
+    return start_belief(static_facts(config), poses, base)
 
 
 def make_problem(
@@ -77,24 +66,13 @@ def make_problem(
     deferred: Collection[str] = DEFAULT_DEFERRED,
     here: BaseConf | None = None,
 ) -> Problem:
-    facts = set(belief.facts)
-    used = {t for a in facts for t in a.args}
-    values: dict[str, Any] = {n: v for n, v in belief.values.items() if n in used}
     streams = make_streams(
         geometry,
         lambda o: believed_pose(belief, o),
         lambda: believed_base(belief) or here,
         deferred,
     )
-    return Problem.create(
-        load_domain(),
-        load_streams(),
-        init=sorted(facts),
-        goal=goal,
-        implementations=streams,
-        objects=values,
-        name="pybullet",
-    )
+    return kitchen_problem(set(belief.facts), belief, goal, streams, "pybullet")
 
 
 def seeded(seed: int, stream: int) -> np.random.Generator:

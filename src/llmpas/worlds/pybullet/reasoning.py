@@ -8,8 +8,8 @@ from types import MappingProxyType
 
 from llmpas.execution.context import Belief
 from llmpas.reasoning.goals import Vocabulary
-from llmpas.reasoning.program import Call
 from llmpas.reasoning.prompts import PromptTables
+from llmpas.worlds.kitchen.reasoning import CALLS, whereabouts
 from llmpas.worlds.pybullet.problem import believed_pose
 from llmpas.worlds.pybullet.scene import SceneConfig
 
@@ -23,13 +23,7 @@ PREDICATES = {
     "holding": ("?o", "the robot holds object ?o"),
     "scanned": ("?r", "the robot has looked at table ?r"),
 }
-PROGRAM_CALLS = MappingProxyType(
-    {
-        "pick": Call(("obj",), "holding", (0,)),
-        "place": Call(("obj", "region"), "on", (0, 1)),
-        "scan_table": Call(("region",), "scanned", (0,)),
-    }
-)
+PROGRAM_CALLS = MappingProxyType(dict(CALLS))
 
 
 def vocabulary(config: SceneConfig) -> Vocabulary:
@@ -46,9 +40,7 @@ def environment(config: SceneConfig, belief: Belief) -> str:
     lines = []
     for o in config.objects:
         pose = believed_pose(belief, o.name)
-        held = bool(belief.matching("atgrasp", o.name))
-        where = "held by the robot" if held else f"on {pose.region}" if pose else "location unknown"
-        lines.append(f"- {o.name} ({o.colour} {o.kind}): {where}")
+        lines.append(f"- {o.name} ({o.colour} {o.kind}): {whereabouts(belief, o.name, pose)}")
     lines.append(f"- tables: {', '.join(t.name for t in config.tables)}")
     return "\n".join(lines)
 

@@ -9,9 +9,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from llmpas.worlds.kitchen.values import BaseConf, Grasp, Planar, check_phase, require_finite
+
 
 @dataclass(frozen=True)
-class ObjectPose:
+class ObjectPose(Planar):
     """Where an object rests: the region it is in (a table or a bowl) and its centre (world)."""
 
     region: str
@@ -20,54 +22,13 @@ class ObjectPose:
     z: float
 
     def __post_init__(self) -> None:
-        if not all(math.isfinite(v) for v in (self.x, self.y, self.z)):
-            raise ValueError(f"non-finite pose {self}")
-
-    def distance(self, other: ObjectPose) -> float:
-        return math.hypot(self.x - other.x, self.y - other.y)
+        require_finite("pose", self, self.x, self.y, self.z)
 
     def __str__(self) -> str:
         return f"{self.region}@({self.x:.2f},{self.y:.2f},{self.z:.2f})"
 
 
 Vector = Sequence[float] | np.ndarray  # a point, direction or quaternion
-
-
-@dataclass(frozen=True)
-class BaseConf:
-    """Where the Husky stands: x, y (metres) and heading (radians)."""
-
-    x: float
-    y: float
-    theta: float
-
-    def __post_init__(self) -> None:
-        if not all(math.isfinite(v) for v in (self.x, self.y, self.theta)):
-            raise ValueError(f"non-finite base configuration {self}")
-
-    @property
-    def pose(self) -> tuple[float, float, float]:
-        return (self.x, self.y, self.theta)
-
-    def distance(self, other: BaseConf) -> float:
-        return math.hypot(self.x - other.x, self.y - other.y)
-
-    def __str__(self) -> str:
-        return f"base({self.x:.2f},{self.y:.2f},{math.degrees(self.theta):.0f}deg)"
-
-
-@dataclass(frozen=True)
-class Grasp:
-    """How the gripper takes an object: from the top or from the front."""
-
-    kind: str
-
-    def __post_init__(self) -> None:
-        if self.kind not in ("top", "forward"):
-            raise ValueError(f"grasp kind must be 'top' or 'forward', got {self.kind!r}")
-
-    def __str__(self) -> str:
-        return f"{self.kind}-grasp"
 
 
 @dataclass(frozen=True)
@@ -100,5 +61,7 @@ class ArmGoal:
     obj: str = ""  # the object grasped or held (its size sets the grasp height)
 
     def __post_init__(self) -> None:
-        if self.phase not in ("pre", "at"):
-            raise ValueError(f"phase must be 'pre' or 'at', got {self.phase!r}")
+        check_phase(self.phase)
+
+
+__all__ = ["ArmGoal", "BaseConf", "BasePath", "Grasp", "ObjectPose", "Vector"]

@@ -9,11 +9,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from types import MappingProxyType
 
-from llmpas.reasoning.goals import Vocabulary
-from llmpas.reasoning.program import Call
 from llmpas.reasoning.prompts import PromptTables
+from llmpas.worlds.pybullet.reasoning import PROGRAM_CALLS, vocabulary
 from llmpas.worlds.pybullet.scene import ObjectConfig, Rect, SceneConfig, TableConfig
 
 TABLE = "table"
@@ -83,16 +81,6 @@ def scenarios() -> dict[str, Scenario]:
     }
 
 
-def vocabulary(config: SceneConfig) -> Vocabulary:
-    cubes = frozenset(o.name for o in config.objects if o.kind == "cube")
-    everything = frozenset(o.name for o in config.objects)
-    tables = frozenset(t.name for t in config.tables)
-    bowls = frozenset(o.name for o in config.objects if o.kind == "bowl")
-    return Vocabulary(
-        {"on": (everything, tables | bowls), "holding": (cubes,), "scanned": (tables,)}
-    )
-
-
 def prompt_tables(config: SceneConfig) -> PromptTables:
     """What the reasoner is told (no example naming this world's objects: it would leak an
     answer; the format example comes from another domain)."""
@@ -113,13 +101,7 @@ def prompt_tables(config: SceneConfig) -> PromptTables:
             "holding": ("?o", "the arm holds object ?o"),
             "scanned": ("?r", "the robot has looked at table ?r"),
         },
-        calls=MappingProxyType(
-            {
-                "pick": Call(("obj",), "holding", (0,)),
-                "place": Call(("obj", "region"), "on", (0, 1)),
-                "scan_table": Call(("region",), "scanned", (0,)),
-            }
-        ),
+        calls=PROGRAM_CALLS,
         objects=tuple(sorted(o.name for o in config.objects)),
     )
 

@@ -16,7 +16,6 @@ from pathlib import Path
 
 import numpy as np
 
-from llmpas.execution.anomaly import AnomalyReport
 from llmpas.execution.context import Belief, Context, Recorder
 from llmpas.execution.csubbt import SubtreeSpec
 from llmpas.execution.executor import ExecutorConfig
@@ -28,18 +27,21 @@ from llmpas.planning import PlannerConfig
 from llmpas.planning.result import Plan
 from llmpas.reasoning.goals import Vocabulary
 from llmpas.reasoning.prompts import PromptTables
-from llmpas.worlds.api import RunOptions, believed_lost
+from llmpas.worlds.api import RunOptions
 from llmpas.worlds.kitchen import load_domain
-from llmpas.worlds.pybullet.decomposition import build_specs, table_of
+from llmpas.worlds.kitchen.reasoning import whereabouts
+from llmpas.worlds.kitchen.session import KitchenSession
+from llmpas.worlds.pybullet.decomposition import build_specs
 from llmpas.worlds.pybullet.motion import BaseChecker
+from llmpas.worlds.pybullet.plugin import table_search
 from llmpas.worlds.pybullet.problem import believed_pose, initial_belief, make_problem
+from llmpas.worlds.pybullet.reasoning import vocabulary as make_vocabulary
 from llmpas.worlds.pybullet.scene import TABLE_TOP, Rect, Scene, open_client
 from llmpas.worlds.pybullet.snapshot import save_media
 from llmpas.worlds.pybullet.streams import Geometry
 from llmpas.worlds.pybullet.values import BaseConf, BasePath, Grasp, ObjectPose
 from llmpas.worlds.pybullet.world import PyBulletWorld
 from llmpas.worlds.tabletop.scenarios import WORKSPACE, Scenario, prompt_tables, scenarios
-from llmpas.worlds.tabletop.scenarios import vocabulary as make_vocabulary
 
 
 class FixedGeometry(Geometry):
@@ -73,34 +75,10 @@ class FixedGeometry(Geometry):
         return BasePath((q1.pose,)) if q1.distance(q2) < 1e-3 else None
 
 
-class Search:
-    """Searching at a fixed table: looking at it (``scanned``)."""
-
-    predicate = "scanned"
-    location = "on"
-    detection = "Detected"
-
-    def __init__(self, session: TabletopSession) -> None:
-        self.session = session
-
-    def places(self) -> tuple[str, ...]:
-        return tuple(self.session.scene.tables)
-
-    def looked_at(self, report: AnomalyReport) -> tuple[str, ...]:
-        c = report.constraint
-        if not isinstance(c, Atom) or len(c.args) < 2:
-            return ()
-        return (table_of(self.session.scene.config, self.session.belief, c.args[1]),)
-
-    def lost(self, obj: str) -> bool:
-        known = any(o.name == obj for o in self.session.scene.config.objects)
-        return known and believed_lost(
-            self.session.belief, obj, believed_pose(self.session.belief, obj)
-        )
-
-
-class TabletopSession:
+class TabletopSession(KitchenSession):
     """One scenario in one physics client; its belief carries over between rounds."""
+
+    scenario: Scenario
 
     def __init__(self, scenario: Scenario, options: RunOptions, client: int) -> None:
         t0 = time.perf_counter()
@@ -115,14 +93,12 @@ class TabletopSession:
         self.world = PyBulletWorld(
             self.scene, np.random.default_rng([seed, 0]), snapshots=options.snapshots
         )
-        self.belief = self._initial_belief()
+        belief = self._initial_belief()
         self.geometry = FixedGeometry(self.scene, np.random.default_rng([seed, 1]), WORKSPACE)
-        self.context = Context(
-            self.world, self.world, self.belief, np.random.default_rng([seed, 2])
-        )
+        self.context = Context(self.world, self.world, belief, np.random.default_rng([seed, 2]))
         self.planner = options.planner or PlannerConfig(max_time=60.0, seed=seed)
         self.executor = options.executor or ExecutorConfig()
-        self.search = Search(self)
+        self.search = table_search(scenario.scene, belief)  # searching is looking at a table
         self.domain: Domain = load_domain()
         self.vocabulary: Vocabulary = make_vocabulary(scenario.scene)
         self.prompts: PromptTables = prompt_tables(scenario.scene)
@@ -146,14 +122,6 @@ class TabletopSession:
         belief.facts -= {Atom.of("Object", b) for b in bowls}
         return belief
 
-    @property
-    def name(self) -> str:
-        return self.scenario.name
-
-    @property
-    def task(self) -> str:
-        return self.scenario.goal
-
     def problem(self, goal: Formula | str, index: int) -> Problem:
         return make_problem(self.geometry, self.belief, goal, here=self.geometry.base)
 
@@ -166,10 +134,7 @@ class TabletopSession:
         lines = []
         for o in self.scene.config.objects:
             pose = believed_pose(self.belief, o.name)
-            held = bool(self.belief.matching("atgrasp", o.name))
-            where = (
-                "held by the arm" if held else f"on {pose.region}" if pose else "location unknown"
-            )
+            where = whereabouts(self.belief, o.name, pose, "the arm")
             lines.append(f"- {o.name} ({o.colour} {o.kind}): {where}")
         lines.append(f"- tables: {', '.join(self.scene.tables)} (the arm stands fixed at it)")
         return "\n".join(lines)
