@@ -344,17 +344,34 @@ class _Loop:
         return self.sem.holds(task, self.session.context.belief.facts)
 
     def next_goal(self, proposal: Proposal) -> tuple[Formula, str]:
-        """The new goals with the task goals they do not contradict, when that can be planned;
+        """The new goals with the task goals they do not contradict, when that can be planned
+        and the plan does not repeat a step that failed for a reason the belief does not hold;
         else the new goals alone (the task is planned again once they are achieved)."""
         new = list(proposal.goals)
         task = parse_formula(self.session.task, self.sem.domain)
         negated = {g.arg for g in new if isinstance(g, Not)}
         keep = [a for a in atoms_of(task) if a not in negated and a not in new]
         both = And((*new, *keep))
-        if self.plan(both)[0].solved:
+        result = self.plan(both)[0]
+        if result.solved and not self.repeats_unexplained(result):
             return both, str(both)
         alone = And(tuple(new))
         return alone, str(alone)
+
+    def repeats_unexplained(self, result: PlanResult) -> bool:
+        """The plan contains the step whose failure is the anomaly, and the anomaly is that
+        step's own failure (its literal names the action, with no arguments: no fact of the
+        belief says why). Nothing tells the planner to achieve the new goals before it, so
+        planned together with the task it would fail again."""
+        report = self.report
+        c = report.constraint if report is not None else None
+        if report is None or not (isinstance(c, Atom) and not c.args):
+            return False
+        if c.predicate != report.action or result.plan is None:
+            return False
+        return any(
+            step.action == report.action and step.args == report.args for step in result.plan.steps
+        )
 
     def check(self, parse: GoalParse) -> GoalParse:
         """Already-true goals are dropped; repeats of exhausted searches and of attempts that

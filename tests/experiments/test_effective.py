@@ -115,10 +115,15 @@ def test_the_rate_counts_samples_of_tasks_with_effective_sets() -> None:
     assert none.first_effective is None
 
 
-def test_every_shipped_task_lists_effective_sets_and_object_loss_measures_the_llm() -> None:
+UNMODELLED = {"ab06", "ab07", "ab08", "sc06", "sc07", "sc08"}  # causes the domain lacks
+
+
+def test_every_shipped_task_lists_effective_sets_and_which_measure_the_llm() -> None:
+    """Object loss, and the tasks whose cause is not a fact of the domain, measure the LLM."""
     for task in load_suite():
         assert task.effective and task.effective_sets()
-        assert task.measures_llm is (task.category.value == "object-loss")
+        unmodelled = task.name[:4] in UNMODELLED
+        assert task.measures_llm is (task.category.value == "object-loss" or unmodelled)
 
 
 def _copy(name: str, folder: Path, new: str, *edits: tuple[str, str]) -> Path:

@@ -34,7 +34,14 @@ from llmpas.worlds.household.plugin import HouseholdSession
 
 # unit costs: the number of actions, not the drive distances the default search weighs
 OPTIMAL = "astar(hmax(axioms=approximate_negative), cost_type=one)"
-TASKS = ("ol02-table1", "ol06-drawer4", "ab04-microwave-cube", "sc02-apple-stove")
+TASKS = (
+    "ol02-table1",
+    "ol06-drawer4",
+    "ab04-microwave-cube",
+    "sc02-apple-stove",
+    "ab06-sink-mug",
+    "sc06-apple-frozen-stove",
+)
 
 
 @pytest.fixture(autouse=True)

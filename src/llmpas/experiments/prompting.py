@@ -7,7 +7,7 @@ state (:func:`llmpas.experiments.suite.judge`). Samples differ by the LLM's seed
 at ``temperature``; the world is the same in every sample.
 
 Per task i: ``SR_i`` = the share of successful samples, ``L̄_i`` = the mean resolution length of
-the successful samples. Per anomaly type with n tasks (10, 5, 5)::
+the successful samples. Per anomaly type with n tasks (10, 8, 8 in the shipped suite)::
 
     SR   = (1/n) Σ_i SR_i
     ASPL = (1/n) Σ_i (L̄_i / L_gt,i) × SR_i        (a task with SR_i = 0 adds 0)

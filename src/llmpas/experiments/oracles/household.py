@@ -9,6 +9,11 @@ from llmpas.language.problem import parse_formula
 from llmpas.reasoning.llm import Request, Response
 from llmpas.worlds.household.plugin import HouseholdSession
 from llmpas.worlds.household.sim import HouseholdWorld
+from llmpas.worlds.household.state import (
+    HIDDEN,
+    PROCESS_EFFECTS,
+    PROCESS_REMOVES,
+)
 
 
 class Oracle:
@@ -43,7 +48,39 @@ class Oracle:
             return list(self.task)
         if atom.predicate == "jammed":
             return self._elsewhere(atom.args[0])
+        if atom.predicate in PROCESS_EFFECTS and not atom.args and not negated:
+            return self._process_failed()  # a process failed for a cause the domain lacks
         return []
+
+    def _process_failed(self) -> list[Atom | Not]:
+        """The last failed process: an object state the domain does not model goes away by the
+        first process that removes it (rinsing before heating); another object in an appliance
+        that processes one at a time goes to a free table part."""
+        failed = [e for e in self.world.skill_calls("process") if not e.ok]
+        if not failed:
+            return []
+        obj, appliance, _how = failed[-1].args
+        if failed[-1].reason == "crowded":
+            truth = self.world.truth
+            others = sorted(o for o in truth.objects_in(appliance) if o != obj)
+            return [self._away(o) for o in others]
+        states = self.world.truth.properties.get(obj, set()) & HIDDEN
+        if failed[-1].reason not in states:
+            return []
+        for process in sorted(PROCESS_REMOVES):
+            if failed[-1].reason in PROCESS_REMOVES[process] and process in PROCESS_EFFECTS:
+                return [Atom(PROCESS_EFFECTS[process], (obj,))]
+        return []
+
+    def _away(self, obj: str) -> Atom:
+        """``obj`` onto the first empty table part."""
+        truth, layout = self.world.truth, self.world.layout
+        free = next(
+            r
+            for r in sorted(layout.regions)
+            if layout.regions[r].kind == "surface" and not truth.objects_in(r)
+        )
+        return Atom("on", (obj, free))
 
     def _elsewhere(self, jammed: str) -> list[Atom | Not]:
         """What was to go into a jammed container goes into the first other one of its kind

@@ -24,6 +24,9 @@ Format (every table and field is checked; unknown fields are errors)::
                                         #   and one standing in front of a door blocks it
     jammed = ["drawer2"]                # doors that do not open (the robot does not know it
                                         #   unless [belief] jammed says so)
+    one_at_a_time = ["sink"]            # appliances that process one object at a time: with
+                                        #   another object in them the process fails (a house
+                                        #   rule the domain does not model: no belief fact)
 
     [[noise.displace]]                  # optional: tolerable disturbances (recoverable by
     kind = "slip"                       #   resampling): the Nth grasp that would otherwise
@@ -47,6 +50,10 @@ Format (every table and field is checked; unknown fields are errors)::
                                         #   (rinse it in the sink); spilled: rinse before heating;
                                         #   wet: dry it on a table before a drawer; broken: it
                                         #   cannot be picked up. hot is not visible.
+                                        #   Also frozen (not cooked), greasy (not into the
+                                        #   fridge), waxed (not cooked): states the domain does
+                                        #   not model (state.HIDDEN), never seen nor believed;
+                                        #   rinsing removes them, heating thaws
     # instead of region/x/y:
     # under = "basket"                  # hidden under a cover; region and x, y default to the
     #                                   #   cover's (x, y must stay within the cover's rim)
@@ -114,7 +121,7 @@ from llmpas.inputs import read_toml
 from llmpas.language.errors import PddlSyntaxError
 from llmpas.language.sexpr import SList, Sym, parse_all
 from llmpas.worlds.household.layout import Layout, ObjectSpec, default_objects, kitchen
-from llmpas.worlds.household.state import PROPERTIES, TrueState, base_collision
+from llmpas.worlds.household.state import HIDDEN, STATES, TrueState, base_collision
 from llmpas.worlds.household.values import BaseConf, Placement
 
 SKILLS = ("move_base", "move_arm", "grasp", "release", "open", "close", "process", "look")
@@ -292,6 +299,7 @@ class Scenario:
     source: str = "<scenario>"
     layout: Layout = field(default_factory=kitchen, repr=False)  # with a floor if [house] says
     jammed: tuple[str, ...] = ()  # doors that do not open
+    one_at_a_time: tuple[str, ...] = ()  # appliances that process one object at a time
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "open", MappingProxyType(dict(self.open)))
@@ -328,6 +336,7 @@ class Scenario:
         _fill(state, self.objects)
         state.open.update(self.open)
         state.jammed.update(self.jammed)
+        state.one_at_a_time.update(self.one_at_a_time)
         return state
 
 
@@ -451,9 +460,9 @@ class _Parser:
         out = set()
         for i, p in enumerate(self.array(value, where)):
             name = self.string(p, f"{where}[{i}]")
-            if name not in PROPERTIES:
+            if name not in STATES:
                 raise self.fail(
-                    f"{where}[{i}]", f"unknown property {name!r}; properties: {_names(PROPERTIES)}"
+                    f"{where}[{i}]", f"unknown property {name!r}; properties: {_names(STATES)}"
                 )
             out.add(name)
         return frozenset(out)
@@ -511,7 +520,7 @@ class _Parser:
             for r in resolved
             if r.placement is not None
         )
-        jammed = self.house(top.get("house", {}))
+        jammed, one_at_a_time = self.house(top.get("house", {}))
         open_ = self.open_table(top.get("open", {}), "open")
         for r in jammed:
             if open_[r]:
@@ -536,12 +545,27 @@ class _Parser:
             source=self.source,
             layout=self.layout,
             jammed=jammed,
+            one_at_a_time=one_at_a_time,
         )
 
-    def house(self, value: Any) -> tuple[str, ...]:
-        t = self.table(value, "house", ("floor", "jammed"))
+    def house(self, value: Any) -> tuple[tuple[str, ...], tuple[str, ...]]:
+        """The jammed doors and the appliances that process one object at a time."""
+        t = self.table(value, "house", ("floor", "jammed", "one_at_a_time"))
         self.boolean(t.get("floor", False), "house.floor")  # read before parsing (the layout)
-        return self.containers(t.get("jammed", []), "house.jammed")
+        jammed = self.containers(t.get("jammed", []), "house.jammed")
+        where = "house.one_at_a_time"
+        appliances = sorted(n for n, r in self.layout.regions.items() if r.process)
+        alone: list[str] = []
+        for i, raw in enumerate(self.array(t.get("one_at_a_time", []), where)):
+            name = self.string(raw, f"{where}[{i}]")
+            if name not in appliances:
+                raise self.fail(
+                    f"{where}[{i}]",
+                    f"{name!r} is not an appliance; appliances: {_names(appliances)}",
+                )
+            if name not in alone:
+                alone.append(name)
+        return jammed, tuple(alone)
 
     def containers(self, value: Any, where: str) -> tuple[str, ...]:
         openable = sorted(n for n, r in self.layout.regions.items() if r.openable)
@@ -617,6 +641,8 @@ class _Parser:
                 if "properties" in t
                 else spec.properties
             )
+            if belief:  # states the domain does not model are never believed
+                props = props - HIDDEN
             if belief and self.boolean(t.get("unknown", False), f"{where}.unknown"):
                 if any(k in t for k in _LOCATION_FIELDS):
                     raise self.fail(
@@ -831,6 +857,13 @@ class _Parser:
                 )
             if name in overrides:
                 raise self.fail(f"{where}.name", f"object {name!r} is listed twice")
+            told = self.properties(b.get("properties", []), f"{where}.properties")
+            hidden = sorted(HIDDEN & told)
+            if hidden:
+                raise self.fail(
+                    f"{where}.properties",
+                    f"{', '.join(hidden)}: a state the domain does not model is never believed",
+                )
             overrides[name] = (where, b)
         merged: list[tuple[str, Mapping[str, Any]]] = []
         for where, e in entries:
@@ -980,10 +1013,10 @@ class _Parser:
                 if "property" not in t:
                     raise self.fail(f"{where}.property", "missing (required)")
                 prop = self.string(t["property"], f"{where}.property")
-                if prop not in PROPERTIES:
+                if prop not in STATES:
                     raise self.fail(
                         f"{where}.property",
-                        f"unknown property {prop!r}; properties: {_names(PROPERTIES)}",
+                        f"unknown property {prop!r}; properties: {_names(STATES)}",
                     )
                 out.append(Event(after, kind, obj, property=prop))
                 continue

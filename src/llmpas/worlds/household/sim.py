@@ -13,9 +13,12 @@ Failed skills return a :class:`SkillResult` whose message says why and whose ``d
 is a short code: ``blocked``, ``bad_value``, ``out_of_reach``, ``hand_full``, ``not_held``,
 ``arm_not_ready``, ``nothing_there``, ``closed``, ``covered``, ``slipped``, ``not_region``,
 ``occupied``, ``outside``, ``overlap``, ``not_openable``, ``cannot_process``, ``not_in``,
-``open``, ``jammed``, ``obstructed``, ``broken``, ``wet``, and an object state that blocks a
-process (``dirty``, ``hot``, ``cooked``, ``spilled``). A detector may take a lookalike for the
-object it resembles (``[[noise.confuse]]``); grasping what it saw then takes the lookalike.
+``open``, ``jammed``, ``obstructed``, ``broken``, ``wet``, ``crowded`` (another object is in an
+appliance that processes one at a time, a house rule the domain does not model), and an object
+state that blocks a process (``dirty``, ``hot``, ``cooked``, ``spilled``, and the states the
+domain does not model, ``frozen``, ``greasy``, ``waxed``: see ``state.HIDDEN``). A detector
+may take a lookalike for the object it resembles (``[[noise.confuse]]``); grasping what it saw
+then takes the lookalike.
 """
 
 from __future__ import annotations
@@ -33,6 +36,8 @@ from llmpas.worlds.household.layout import Layout, kitchen
 from llmpas.worlds.household.scenario import Disturbance, Event, Scenario
 from llmpas.worlds.household.state import (
     BLOCKING,
+    HIDDEN_BLOCKING,
+    ONE_AT_A_TIME,
     PROCESS_EFFECTS,
     PROCESS_REMOVES,
     VISIBLE,
@@ -63,6 +68,7 @@ class LogEntry:
     args: tuple[str, ...]
     ok: bool
     message: str
+    reason: str = ""  # a failed skill's reason code (module docstring)
 
     def __str__(self) -> str:
         mark = "ok" if self.ok else "FAILED"
@@ -113,11 +119,14 @@ class HouseholdWorld:
         return self._successes[skill]
 
     def _finish(self, skill: str, args: tuple[Any, ...], result: SkillResult) -> SkillResult:
-        self._record(skill, args, result.ok, result.message)
+        reason = result.data.get("reason")
+        self._record(skill, args, result.ok, result.message, str(reason or ""))
         return result
 
-    def _record(self, skill: str, args: tuple[Any, ...], ok: bool, message: str) -> None:
-        self.log.append(LogEntry("skill", skill, tuple(str(a) for a in args), ok, message))
+    def _record(
+        self, skill: str, args: tuple[Any, ...], ok: bool, message: str, reason: str = ""
+    ) -> None:
+        self.log.append(LogEntry("skill", skill, tuple(str(a) for a in args), ok, message, reason))
         if ok:
             self._successes[skill] += 1
             self._trigger(skill, self._successes[skill])
@@ -531,9 +540,17 @@ class HouseholdWorld:
         if region.openable and t.open.get(appliance, False):
             return _fail("open", f"{appliance} is open")
         props = t.properties.setdefault(obj, set())
-        for state, why in BLOCKING.get(how, {}).items():
-            if state in props:
-                return _fail(state, f"{obj} is {state}: {why}")
+        for blocking in (BLOCKING, HIDDEN_BLOCKING):
+            for state, why in blocking.get(how, {}).items():
+                if state in props:
+                    return _fail(state, f"{obj} is {state}: {why}")
+        others = [o for o in t.objects_in(appliance) if o != obj]
+        if appliance in t.one_at_a_time and others:
+            return _fail(
+                "crowded",
+                f"{', '.join(others)} {'is' if len(others) == 1 else 'are'} also in {appliance}: "
+                f"{appliance} can {how} only {ONE_AT_A_TIME}",
+            )
         props -= PROCESS_REMOVES.get(how, frozenset())
         if how in PROCESS_EFFECTS:
             props.add(PROCESS_EFFECTS[how])

@@ -30,6 +30,15 @@ PROPERTIES = frozenset(
 VISIBLE = PROPERTIES - {"hot"}
 """The states a camera sees (heat shows only when a skill fails because of it)."""
 
+HIDDEN = frozenset({"frozen", "greasy", "waxed"})
+"""Object states the world has but the planning domain does not model (no predicate names
+them): no camera reports them, the robot never believes them, and a process they block fails
+with the state named in its message (:data:`HIDDEN_BLOCKING`); another process removes them
+(:data:`PROCESS_REMOVES`). Only what the robot is told can account for them."""
+
+STATES = PROPERTIES | HIDDEN
+"""Every object state a scenario may give an object."""
+
 PROCESS_EFFECTS: Mapping[str, str] = MappingProxyType(
     {"clean": "cleaned", "cook": "cooked", "heat": "heated", "cool": "cooled"}
 )
@@ -37,8 +46,10 @@ PROCESS_EFFECTS: Mapping[str, str] = MappingProxyType(
 
 PROCESS_REMOVES: Mapping[str, frozenset[str]] = MappingProxyType(
     {
-        "clean": frozenset({"dirty", "hot", "spilled"}),  # rinsed under cold water
+        # rinsed under cold running water (which also thaws, washes grease and wax off)
+        "clean": frozenset({"dirty", "hot", "spilled", "frozen", "greasy", "waxed"}),
         "dry": frozenset({"wet"}),  # wiped dry on a table
+        "heat": frozenset({"frozen"}),  # thawed
     }
 )
 """What a process takes away from the object's properties."""
@@ -56,6 +67,22 @@ BLOCKING: Mapping[str, Mapping[str, str]] = MappingProxyType(
     }
 )
 """Process -> object state that makes it fail -> why (the failure's reason is the state)."""
+
+HIDDEN_BLOCKING: Mapping[str, Mapping[str, str]] = MappingProxyType(
+    {
+        "cook": MappingProxyType(
+            {"frozen": "frozen food cannot be cooked", "waxed": "waxed fruit is not cooked"}
+        ),
+        "cool": MappingProxyType({"greasy": "greasy things do not go into the fridge"}),
+    }
+)
+"""Like :data:`BLOCKING`, for the :data:`HIDDEN` states (the message states the cause, never
+the remedy)."""
+
+ONE_AT_A_TIME = "one thing at a time"
+"""Why a process fails in an appliance of a house whose rule is that it processes one object at
+a time (``[house] one_at_a_time``) while another object is in it: a rule the domain does not
+model (it knows only capacities), stated in the failure's message."""
 
 EPS = 1e-9
 
@@ -174,6 +201,7 @@ class TrueState:
     properties: dict[str, set[str]] = field(default_factory=dict)
     held_from: Placement | None = None  # where the held object was taken from
     jammed: set[str] = field(default_factory=set)  # doors that do not open
+    one_at_a_time: set[str] = field(default_factory=set)  # appliances: one object per process
 
     def __post_init__(self) -> None:
         for name, region in self.layout.regions.items():
