@@ -19,6 +19,29 @@ def failed_literal(request: Request) -> Formula | None:
     return constraint
 
 
+class TruthOracle:
+    """The shape every world's oracle shares: a short first look, then goals for the failed
+    literal the request carries (:meth:`goals_for` the literal's atom; ``negated``: it failed
+    as ``(not atom)``), computed from the world's truth by the subclass."""
+
+    name = "oracle"
+
+    def complete(self, request: Request) -> Response:
+        c = failed_literal(request)
+        if c is None:
+            return first_look()
+        atom = c.arg if isinstance(c, Not) else c
+        goals = self.goals_for(atom, isinstance(c, Not)) if isinstance(atom, Atom) else []
+        return answer(goals)
+
+    def goals(self, c: Formula) -> list[Atom | Not]:
+        atom = c.arg if isinstance(c, Not) else c
+        return self.goals_for(atom, isinstance(c, Not)) if isinstance(atom, Atom) else []
+
+    def goals_for(self, atom: Atom, negated: bool) -> list[Atom | Not]:
+        raise NotImplementedError
+
+
 def answer(goals: list[Atom | Not]) -> Response:
     return Response(f"(and {' '.join(map(str, goals))})", model="oracle")
 
@@ -27,4 +50,4 @@ def first_look() -> Response:
     return Response(FIRST_LOOK, model="oracle")
 
 
-__all__ = ["FIRST_LOOK", "answer", "failed_literal", "first_look"]
+__all__ = ["FIRST_LOOK", "TruthOracle", "answer", "failed_literal", "first_look"]

@@ -3,10 +3,9 @@ computed from the simulator's TRUE state."""
 
 from __future__ import annotations
 
-from llmpas.experiments.oracles import answer, failed_literal, first_look
-from llmpas.language.logic import Atom, Formula, Not, atoms_of
+from llmpas.experiments.oracles import TruthOracle
+from llmpas.language.logic import Atom, Not, atoms_of
 from llmpas.language.problem import parse_formula
-from llmpas.reasoning.llm import Request, Response
 from llmpas.worlds.household.plugin import HouseholdSession
 from llmpas.worlds.household.sim import HouseholdWorld
 from llmpas.worlds.household.state import (
@@ -16,24 +15,14 @@ from llmpas.worlds.household.state import (
 )
 
 
-class Oracle:
+class Oracle(TruthOracle):
     """Goals from the true state of ``world`` for the anomaly in each request."""
-
-    name = "oracle"
 
     def __init__(self, world: HouseholdWorld, task: tuple[Atom, ...] = ()) -> None:
         self.world = world
         self.task = task  # the task's atoms (what was to go where)
 
-    def complete(self, request: Request) -> Response:
-        c = failed_literal(request)
-        return first_look() if c is None else answer(self.goals(c))
-
-    def goals(self, c: Formula) -> list[Atom | Not]:
-        atom = c.arg if isinstance(c, Not) else c
-        if not isinstance(atom, Atom):
-            return []
-        negated = isinstance(c, Not)
+    def goals_for(self, atom: Atom, negated: bool) -> list[Atom | Not]:
         if atom.predicate in ("on", "atgrasp") and not negated:  # not where / not what it was
             return [self._find(atom.args[0])]
         if atom.predicate == "open" and not negated:  # a closed drawer, where it was believed open

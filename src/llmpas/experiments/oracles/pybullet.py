@@ -3,31 +3,21 @@ simulator's TRUE state."""
 
 from __future__ import annotations
 
-from llmpas.experiments.oracles import answer, failed_literal, first_look
-from llmpas.language.logic import Atom, Formula, Not
-from llmpas.reasoning.llm import Request, Response
+from llmpas.experiments.oracles import TruthOracle
+from llmpas.language.logic import Atom, Not
 from llmpas.worlds.pybullet.plugin import PyBulletSession
 from llmpas.worlds.pybullet.scene import Scene
 
 
-class Oracle:
+class Oracle(TruthOracle):
     """Goals from the true scene for the anomaly in each request."""
-
-    name = "oracle"
 
     def __init__(self, scene: Scene) -> None:
         self.scene = scene
 
-    def complete(self, request: Request) -> Response:
-        c = failed_literal(request)
-        return first_look() if c is None else answer(self.goals(c))
-
-    def goals(self, c: Formula) -> list[Atom | Not]:
-        atom = c.arg if isinstance(c, Not) else c
-        if not isinstance(atom, Atom):
-            return []
+    def goals_for(self, atom: Atom, negated: bool) -> list[Atom | Not]:
         scene = self.scene
-        if atom.predicate == "on" and not isinstance(c, Not):
+        if atom.predicate == "on" and not negated:
             at, _ = scene.pose(atom.args[0])
             table = next(
                 (t for t, rect in scene.tables.items() if rect.contains(at[0], at[1])), None
