@@ -1,0 +1,40 @@
+"""The published offline-model figures replay exactly: Qwen2.5-Coder-1.5B's answers on the tasks
+that measure the LLM were recorded once (``bench prompting --llm llama-cpp --record``, cassettes
+in ``tests/data/cassettes/qwen1.5b-suite``); replaying them through the same command must give the
+same goals and verdicts as ``docs/results/prompting-qwen1.5b-measures-llm_samples.csv``. Planner
+verdicts are counted, not timed, so load cannot change which question the loop asks."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import pytest
+
+from llmpas.cli import main
+
+ROOT = Path(__file__).parents[2]
+CASSETTES = ROOT / "tests" / "data" / "cassettes" / "qwen1.5b-suite"
+PUBLISHED = ROOT / "docs" / "results" / "prompting-qwen1.5b-measures-llm_samples.csv"
+FIELDS = ("success", "verdict", "goals", "first_goals", "first_effective", "resolution_length")
+
+
+def _rows(path: Path, methods: tuple[str, ...], tasks: tuple[str, ...]) -> dict[tuple, dict]:
+    with path.open(newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r["method"] in methods and r["task"] in tasks]
+    return {(r["task"], r["method"]): {k: r[k] for k in FIELDS} for r in rows}
+
+
+@pytest.mark.parametrize(
+    ("method", "tasks"),
+    [("flp", ("ol01-table2", "ol09-drawer4-from-start")), ("one-step", ("ol10-basket-bowl",))],
+)
+def test_the_published_offline_model_runs_replay_exactly(
+    method: str, tasks: tuple[str, ...], tmp_path: Path
+) -> None:
+    argv = ["bench", "prompting", "--llm", f"replay:{CASSETTES}", "--methods", method]
+    argv += ["--no-oracle", "--no-replan", "--samples", "1", "--out", str(tmp_path)]
+    assert main([*argv, "--tasks", *tasks]) == 0
+    replayed = _rows(tmp_path / "prompting_samples.csv", (method,), tasks)
+    published = _rows(PUBLISHED, (method,), tasks)
+    assert replayed and replayed == published
