@@ -288,3 +288,24 @@ def test_the_oracle_recovers_the_new_household_anomalies(scenario: str, goals: l
     result = run_loop(scenario, ORACLE)
     assert result.success, result.message
     assert [str(g) for r in result.rounds if r.proposal for g in r.proposal.goals] == goals
+
+
+def test_a_place_searched_in_vain_is_worth_another_look_once_a_cover_is_lifted_from_it() -> None:
+    from llmpas.experiments.suite import SUITE_DIR, load_task
+
+    # the apple is hidden under the basket on table1_left: the first search there finds nothing;
+    # once the basket is lifted, looking at table1_left again is not a repeated search
+    task = load_task(SUITE_DIR / "ol08-basket-table1.toml")
+
+    class Answers(Scripted):
+        def complete(self, request: Request) -> Response:
+            self.requests.append(request)
+            asked = [r for r in self.requests if r.tag != "first-look"]
+            step = ["(and (holding basket))", "(and (scanned table1_left))"][min(len(asked), 2) - 1]
+            return Response(step, model="scripted")
+
+    llm = Answers("")
+    result = run_loop(task.scenario, llm)
+    assert result.success, result.message
+    goals = [str(g) for r in result.rounds if r.proposal for g in r.proposal.goals]
+    assert goals == ["(holding basket)", "(scanned table1_left)"]

@@ -202,6 +202,7 @@ class _Loop:
     tried: list[frozenset[str]] = field(default_factory=list)  # achieved, did not help
     pending: frozenset[str] | None = None  # the goals being pursued
     searched: dict[str, set[str]] = field(default_factory=dict)
+    seen: dict[tuple[str, str], frozenset[Atom]] = field(default_factory=dict)  # at the search
     plans: dict[tuple[str, int], tuple[PlanResult, Any]] = field(default_factory=dict)
     llm_time: float = 0.0
     deadline: float | None = None
@@ -380,6 +381,7 @@ class _Loop:
         parse = self.drop_true(self.as_searches(parse))
         if not parse.ok:
             return replace(parse, rejected=raw)
+        self.refresh()
         errors = []
         bad = []
         for g in parse.goals:
@@ -409,6 +411,7 @@ class _Loop:
         """Searches that cannot help (places already searched for a lost object), in both
         spellings: ``(scanned P)`` and ``(on X P)``; left out of the LLM's decoding."""
         out: list[Literal] = []
+        self.refresh()
         for obj, regions in self.searched.items():
             if self.search.lost(obj):
                 for place in sorted(regions):
@@ -496,7 +499,8 @@ class _Loop:
         """A failed detection: the places it looked at are searched for its object."""
         if report.constraint_name == self.search.detection:
             obj = report.constraint.args[0] if isinstance(report.constraint, Atom) else ""
-            self.searched.setdefault(str(obj), set()).update(self.search.looked_at(report))
+            for place in self.search.looked_at(report):
+                self.searched_for(str(obj), place)
 
     def searched_in(self, rnd: Round) -> None:
         """A search goal reached while an object is still lost: that place is searched."""
@@ -504,7 +508,30 @@ class _Loop:
         for goal in atoms_of(parse_formula(rnd.goal, self.sem.domain)):
             if goal.predicate == self.search.predicate:
                 for obj in lost:
-                    self.searched[obj].add(goal.args[0])
+                    self.searched_for(obj, goal.args[0])
+
+    def searched_for(self, obj: str, place: str) -> None:
+        self.searched.setdefault(obj, set()).add(place)
+        self.seen[obj, place] = self.about(place)
+
+    def about(self, place: str) -> frozenset[Atom]:
+        """What the robot believes about ``place``: the facts that name it, and where objects
+        are believed to rest there (``(location OBJ place)``, derived)."""
+        facts = self.session.context.belief.facts
+        named = {a for a in facts if place in a.args}
+        objects = self.session.vocabulary.predicates.get(self.search.location, ((),))[0]
+        state = self.sem.state(facts)
+        there = {Atom(self.search.location, (o, place)) for o in sorted(objects)}
+        return frozenset(named | {a for a in there if self.sem.holds(a, state)})
+
+    def refresh(self) -> None:
+        """A place searched in vain stays searched while what the robot believes about it is
+        unchanged; a cover lifted from it or an object put there makes it worth another look."""
+        for obj, places in self.searched.items():
+            for place in sorted(places):
+                if self.seen.get((obj, place)) != self.about(place):
+                    places.discard(place)
+                    self.seen.pop((obj, place), None)
 
     def not_searched(self, obj: str, regions: set[str]) -> str:
         rest = [p for p in self.search.places() if p not in regions]
@@ -512,7 +539,10 @@ class _Loop:
 
     def history(self) -> str:
         lines = []
+        self.refresh()
         for obj, regions in self.searched.items():
+            if not regions:
+                continue
             lines.append(f"- {obj} was not found on {', '.join(sorted(regions))}")
             rest = [p for p in self.search.places() if p not in regions]
             lines.append(f"- places not searched yet for {obj}: {', '.join(rest)}")
