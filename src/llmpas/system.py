@@ -514,22 +514,24 @@ class _Loop:
         self.searched.setdefault(obj, set()).add(place)
         self.seen[obj, place] = self.about(place)
 
-    def about(self, place: str) -> frozenset[Atom]:
+    def about(self, place: str, state: Any = None) -> frozenset[Atom]:
         """What the robot believes about ``place``: the facts that name it, and where objects
-        are believed to rest there (``(location OBJ place)``, derived)."""
+        are believed to rest there (``(location OBJ place)``, derived; ``state``: the belief's,
+        when the caller has it)."""
         facts = self.session.context.belief.facts
         named = {a for a in facts if place in a.args}
         objects = self.session.vocabulary.predicates.get(self.search.location, ((),))[0]
-        state = self.sem.state(facts)
+        state = self.sem.state(facts) if state is None else state
         there = {Atom(self.search.location, (o, place)) for o in sorted(objects)}
         return frozenset(named | {a for a in there if self.sem.holds(a, state)})
 
     def refresh(self) -> None:
         """A place searched in vain stays searched while what the robot believes about it is
         unchanged; a cover lifted from it or an object put there makes it worth another look."""
+        state = self.sem.state(self.session.context.belief.facts)  # derived once for all places
         for obj, places in self.searched.items():
             for place in sorted(places):
-                if self.seen.get((obj, place)) != self.about(place):
+                if self.seen.get((obj, place)) != self.about(place, state):
                     places.discard(place)
                     self.seen.pop((obj, place), None)
 
@@ -640,15 +642,9 @@ def run(
     """Open ``scenario`` in ``world``, run the closed loop, judge the task in the world's truth
     (where the world has a judge) and, with ``out``, write the run folder (``loop.json`` and
     ``loop.md`` after every step, each round's episode and subtrees, the world's own files)."""
-    settings = settings or LoopSettings()
-    t0 = time.perf_counter()
-    with world.open(scenario, options or RunOptions()) as session:
-        hooks = [h for h in (on_round, _records_to(out)) if h is not None]
-        result = close_loop(session, llm, settings, _each(hooks) if hooks else None)
-        result = _judged(result, session, time.perf_counter() - t0)
-        if out is not None:
-            save_loop(result, out, session)
-    return result
+    hooks = [h for h in (on_round, _records_to(out)) if h is not None]
+    save = None if out is None else (lambda r, session: save_loop(r, out, session))
+    return _opened(world, scenario, llm, settings or LoopSettings(), options, hooks, save)
 
 
 def run_once(
@@ -659,12 +655,26 @@ def run_once(
 ) -> LoopResult:
     """Plan the task once and execute it, with no LLM (one round), judged like :func:`run`;
     ``out``: an episode folder (the episode's reports and subtrees, the world's own files)."""
+    save = None if out is None else (lambda r, session: save_once(r, out, session))
+    return _opened(world, scenario, _NoLLM(), LoopSettings(max_rounds=0), options, [], save)
+
+
+def _opened(
+    world: World,
+    scenario: Any,
+    llm: LLM | LLMFor,
+    settings: LoopSettings,
+    options: RunOptions | None,
+    hooks: list[OnRound],
+    save: Callable[[LoopResult, Session], object] | None,
+) -> LoopResult:
+    """The loop on a session of ``world``, judged in its truth, then saved while it is open."""
     t0 = time.perf_counter()
     with world.open(scenario, options or RunOptions()) as session:
-        result = close_loop(session, _NoLLM(), LoopSettings(max_rounds=0))
+        result = close_loop(session, llm, settings, _each(hooks) if hooks else None)
         result = _judged(result, session, time.perf_counter() - t0)
-        if out is not None:
-            save_once(result, out, session)
+        if save is not None:
+            save(result, session)
     return result
 
 

@@ -86,34 +86,25 @@ def world_of(scenario: str, worlds: tuple[str, ...] = tuple(WORLDS)) -> str:
             return "household"
     except OSError as e:  # a name too long for a path, say
         raise UsageError(f"scenario {scenario[:60]!r}: {e.strerror or e}") from None
+    known: dict[str, list[str]] = {}
     for name in worlds:
         try:
-            if scenario in load_world(name).scenarios():
-                return name
+            shipped = load_world(name).scenarios()
         except UsageError:  # a world whose extra is not installed
             continue
-    known = {n: sorted(load_world(n).scenarios()) for n in worlds if _loads(n)}
+        if scenario in shipped:
+            return name
+        known[name] = sorted(shipped)
     listed = "; ".join(f"{n}: {', '.join(s)}" for n, s in known.items())
     raise UsageError(f"no scenario {scenario!r}; known scenarios: {listed}")
-
-
-def _loads(name: str) -> bool:
-    try:
-        load_world(name)
-    except UsageError:
-        return False
-    return True
 
 
 def oracle_for(world: str) -> LLMFor:
     """The labelled oracle of a world (a function of its session)."""
     if world in ORACLES:
         return _attr(ORACLES[world], "oracle")
-    module = world.partition(":")[0]
-    found = _attr(f"{module}:oracle", "oracle") if ":" in world else None
-    if found is None:
-        raise UsageError(f"world {world!r} has no oracle")
-    return found
+    # a user's world: an ``oracle(session)`` function beside its world object
+    return _attr(f"{world.partition(':')[0]}:oracle", "oracle")
 
 
 def llm_for(spec: str, record: str | None = None, world: str = "household") -> LLM | LLMFor:

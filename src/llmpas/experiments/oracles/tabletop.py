@@ -4,30 +4,19 @@ the failed literal as data)."""
 
 from __future__ import annotations
 
-from llmpas.language.logic import Atom, Formula, Not
-from llmpas.reasoning.llm import LLM, Request, Response
+from llmpas.experiments.oracles import TruthOracle
+from llmpas.language.logic import Atom, Not
+from llmpas.reasoning.llm import LLM
 from llmpas.worlds.tabletop import TabletopSession
 
 
-class TabletopOracle:
-    name = "oracle"
-
+class TabletopOracle(TruthOracle):
     def __init__(self, session: TabletopSession) -> None:
         self.session = session
 
-    def complete(self, request: Request) -> Response:
-        if request.tag == "first-look":
-            return Response("Look at what the scene really holds.", model="oracle")
-        constraint = getattr(request.situation, "constraint", None)
-        goals = self.goals(constraint) if isinstance(constraint, Formula) else []
-        return Response(f"(and {' '.join(map(str, goals))})", model="oracle")
-
-    def goals(self, constraint: Formula) -> list[Atom]:
+    def goals_for(self, atom: Atom, negated: bool) -> list[Atom | Not]:
         """``(full B)`` (also negated): every cube truly in bowl B to a table; ``(on O R)`` (a
         failed detection): look at the table O truly is on."""
-        atom = constraint.arg if isinstance(constraint, Not) else constraint
-        if not isinstance(atom, Atom):
-            return []
         scene = self.session.scene
         if atom.predicate == "full":
             table = next(iter(scene.tables))
