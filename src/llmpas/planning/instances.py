@@ -128,6 +128,20 @@ class StreamStore:
         self.records: dict[tuple[str, tuple[str, ...]], Record] = {}
         self.calls: Counter[str] = Counter()
         self.time = 0.0
+        #: complexity of each real object produced here (others: 0), see :meth:`complexity_of`
+        self.complexity: dict[str, int] = {}
+        self._given = frozenset(problem.all_objects)
+
+    def input_complexity(self, inputs: tuple[str, ...]) -> int:
+        """The highest complexity of real objects among ``inputs`` (placeholders: see
+        :func:`optimistic_instances`)."""
+        return max((self.complexity.get(x, 0) for x in inputs), default=0)
+
+    def complexity_of(self, rec: Record) -> int:
+        """PDDLStream's complexity of the instance's next result: the highest complexity of its
+        inputs plus, for a stream with outputs, its calls so far plus one (a test adds
+        nothing). An object produced by that call has this complexity."""
+        return self.input_complexity(rec.inputs) + _call_weight(rec.bound, rec.calls)
 
     def record(self, bound: BoundStream, inputs: tuple[str, ...]) -> Record:
         key = (bound.schema.name, inputs)
@@ -163,7 +177,11 @@ class StreamStore:
                     for a in schema.certified
                 }
             return None
+        complexity = self.input_complexity(rec.inputs) + _call_weight(rec.bound, rec.calls - 1)
         names = tuple(self._name(v) for v in out)
+        for n in names:
+            if n not in self._given:
+                self.complexity[n] = min(self.complexity.get(n, complexity), complexity)
         rec.outputs.append(names)
         sub = Substitution(
             dict(zip(schema.inputs + schema.outputs, rec.inputs + names, strict=True))
@@ -214,6 +232,12 @@ class StreamStore:
 
     def out_of_time(self) -> bool:
         return time.perf_counter() > self.deadline
+
+
+def _call_weight(bound: BoundStream, calls: int) -> int:
+    """What one more result adds to complexity: 0 for a stream without outputs (a test), else
+    ``calls + 1``: the more an instance was sampled, the later its next sample is assumed."""
+    return 0 if not bound.schema.outputs else calls + 1
 
 
 def negative_test_predicates(problem: Problem) -> set[str]:
@@ -274,27 +298,56 @@ class _Namer:
         return f"{OPTIMISTIC_PREFIX}{next(self.counter)}"
 
 
+@dataclass
+class Closure:
+    """Bounds of one optimistic closure, and what they left out.
+
+    ``complexity_limit``: instances of higher complexity are left out (None: no limit);
+    ``pruned`` is the lowest complexity left out (None: nothing was).
+
+    ``evidence``: a test on a placeholder is not assumed to pass when the same test failed on
+    at least this many real outputs of the placeholder's producer and passed on none (None:
+    always assumed); ``withheld`` counts the tests not assumed."""
+
+    complexity_limit: int | None = None
+    evidence: int | None = None
+    pruned: int | None = None
+    withheld: int = 0
+
+    def prune(self, complexity: int) -> None:
+        self.pruned = complexity if self.pruned is None else min(self.pruned, complexity)
+
+    @property
+    def narrowed(self) -> bool:
+        """Whether a bound left anything out."""
+        return self.pruned is not None or self.withheld > 0
+
+
 def optimistic_instances(
     store: StreamStore,
     allowed: Callable[[BoundStream], bool],
     max_level: int,
     limit: int = 50_000,
     shared: Callable[[BoundStream], bool] = lambda b: False,
+    closure: Closure | None = None,
 ) -> list[OptInstance]:
     """The optimistic closure of the real facts under the allowed, enabled, non-exhausted
-    instances; streams for which ``shared`` holds share their placeholders (module docstring)."""
+    instances; streams for which ``shared`` holds share their placeholders (module docstring).
+
+    An instance is left out when its level (how many placeholders deep) exceeds ``max_level``,
+    or when a bound of ``closure`` says so: its complexity (PDDLStream's: the highest complexity
+    of its inputs, real or placeholder, plus the instance's calls + 1 for a stream with outputs)
+    exceeds the limit, or it is a test on a placeholder that the evidence says fails."""
+    closer = _Closer(store, max_level, _Namer(shared), closure or Closure())
     facts = set(store.facts)
-    level: dict[str, int] = {}
-    seen: set[tuple[str, tuple[str, ...]]] = set()
     out: list[OptInstance] = []
-    namer = _Namer(shared)
     streams = [b for b in store.problem.bound_streams.values() if allowed(b)]
     changed = True
     while changed:
         changed = False
         state = State(facts)
         for bound in streams:
-            for inst in _new_instances(bound, state, store, seen, level, max_level, namer):
+            for inst in closer.new_instances(bound, state):
                 out.append(inst)
                 facts |= set(inst.certified)
                 changed = True
@@ -306,33 +359,87 @@ def optimistic_instances(
     return out
 
 
-def _new_instances(
-    bound: BoundStream,
-    state: State,
-    store: StreamStore,
-    seen: set[tuple[str, tuple[str, ...]]],
-    level: dict[str, int],
-    max_level: int,
-    namer: _Namer,
-) -> Iterator[OptInstance]:
-    schema = bound.schema
-    for env in list(join(schema.domain, state)):
-        inputs = tuple(env[v] for v in schema.inputs)
-        key = (schema.name, inputs)
-        if key in seen:
-            continue
-        rec = store.records.get(key)
-        if rec is not None and (rec.exhausted or not rec.enabled):
-            continue
-        lvl = 1 + max((level.get(i, 0) for i in inputs), default=0)
-        if lvl > max_level:
-            continue
-        seen.add(key)
-        outputs = namer.outputs(bound, lvl)
-        level.update(dict.fromkeys(outputs, lvl))
+_Key = tuple[str, tuple[str, ...]]
+
+
+class _Closer:
+    """The bookkeeping of one optimistic closure: per placeholder its level, complexity and
+    producers (instance key, output index)."""
+
+    def __init__(self, store: StreamStore, max_level: int, namer: _Namer, closure: Closure):
+        self.store = store
+        self.max_level = max_level
+        self.namer = namer
+        self.closure = closure
+        self.seen: set[_Key] = set()
+        self.level: dict[str, int] = {}
+        self.complexity: dict[str, int] = {}
+        self.producers: dict[str, list[tuple[_Key, int]]] = {}
+
+    def new_instances(self, bound: BoundStream, state: State) -> Iterator[OptInstance]:
+        schema = bound.schema
+        store, closure = self.store, self.closure
+        for env in list(join(schema.domain, state)):
+            inputs = tuple(env[v] for v in schema.inputs)
+            key = (schema.name, inputs)
+            if key in self.seen:
+                continue
+            rec = store.records.get(key)
+            if rec is not None and (rec.exhausted or not rec.enabled):
+                continue
+            lvl = 1 + max((self.level.get(i, 0) for i in inputs), default=0)
+            if lvl > self.max_level:
+                continue
+            cost = self._inherited(inputs) + _call_weight(bound, rec.calls if rec else 0)
+            if closure.complexity_limit is not None and cost > closure.complexity_limit:
+                closure.prune(cost)
+                continue
+            if not schema.outputs and self._refuted(key):
+                self.seen.add(key)
+                closure.withheld += 1
+                continue
+            self.seen.add(key)
+            yield self._instance(bound, inputs, lvl, cost)
+
+    def _inherited(self, inputs: tuple[str, ...]) -> int:
+        return max(
+            (self.complexity.get(i, self.store.complexity.get(i, 0)) for i in inputs), default=0
+        )
+
+    def _instance(
+        self, bound: BoundStream, inputs: tuple[str, ...], lvl: int, cost: int
+    ) -> OptInstance:
+        schema = bound.schema
+        outputs = self.namer.outputs(bound, lvl)
+        for k, o in enumerate(outputs):
+            self.level[o] = lvl
+            self.complexity[o] = min(self.complexity.get(o, cost), cost)  # shared: the lowest
+            self.producers.setdefault(o, []).append(((schema.name, inputs), k))
         sub = Substitution(dict(zip(schema.inputs + schema.outputs, inputs + outputs, strict=True)))
         certified = tuple(sub.atom(a) for a in schema.certified)
-        yield OptInstance(bound, inputs, outputs, certified, lvl)
+        return OptInstance(bound, inputs, outputs, certified, lvl)
+
+    def _refuted(self, key: _Key) -> bool:
+        """Whether the evidence says the test ``key`` on one placeholder fails: on the real
+        outputs of every producer of that placeholder, the same test failed at least
+        ``evidence`` times and never passed."""
+        need = self.closure.evidence
+        name, inputs = key
+        holes = [j for j, x in enumerate(inputs) if is_optimistic(x)]
+        if need is None or len(holes) != 1:
+            return False
+        j = holes[0]
+        failed = 0
+        for producer, k in self.producers.get(inputs[j], []):
+            made = self.store.records.get(producer)
+            for out in made.outputs if made is not None else []:
+                test = self.store.records.get((name, (*inputs[:j], out[k], *inputs[j + 1 :])))
+                if test is None or not test.exhausted:
+                    continue  # not evaluated on that output
+                if test.outputs:
+                    return False  # it passed once
+                failed += 1
+        return failed >= need
 
 
 _JOIN_DOMAIN = Domain("join")  # immutable; joins of positive atoms need no types

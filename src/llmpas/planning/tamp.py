@@ -48,6 +48,7 @@ from llmpas.planning.downward import (
 )
 from llmpas.planning.guards import guard_quantifiers
 from llmpas.planning.instances import (
+    Closure,
     LimitReached,
     OptInstance,
     StreamFailure,
@@ -85,6 +86,8 @@ class _Run:
     inline: frozenset[str] = frozenset()  # deferred streams compiled into the actions
     domain_text: str = ""  # what the classical planner gets (quantifiers guarded)
     iterations: int = 0
+    complexity_limit: int = 0  # focused: raised when a search fails (see _widen)
+    evidence: int = 1  # focused: raised when a search fails (see _widen)
     translate_time: float = 0.0
     search_time: float = 0.0
     cost_cache: dict[FuncTerm, float] = field(default_factory=dict)
@@ -166,16 +169,19 @@ def solve(
 def _focused(run: _Run) -> PlanResult:
     store = run.store
     evaluated: _Evaluated | None = None  # the last plan whose streams were evaluated
+    run.complexity_limit = run.config.max_level
     while run.iterations < run.config.max_iterations:
         run.iterations += 1
         evaluate_negative_tests(store, _negative_streams(run))
         if store.out_of_time():
             return _time_limit(run)
+        closure = Closure(run.complexity_limit, run.evidence)
         opt = optimistic_instances(
             store,
             run.instantiated,
             run.config.max_level,
             shared=lambda b: run.config.share_placeholders and not run.deferred(b),
+            closure=closure,
         )
         _update_costs(run, opt)
         if evaluated is not None:
@@ -186,7 +192,7 @@ def _focused(run: _Run) -> PlanResult:
         if isinstance(found, PlanResult):
             return found
         if found is None:  # no plan even with every enabled instance assumed
-            if _reenable(store):
+            if _widen(run, closure):
                 continue
             return run.result(PlanStatus.UNSOLVABLE, _unsolvable_message(run))
         actions, cost = found
@@ -230,6 +236,26 @@ def _negative_streams(run: _Run) -> list[BoundStream]:
             and any(a.predicate in run.negative_tests for a in b.schema.certified)
         )
     ]
+
+
+def _widen(run: _Run, closure: Closure) -> bool:
+    """After a failed search: re-enable the evaluated instances and raise the complexity limit
+    (to the lowest complexity left out, at least by one), as PDDLStream's adaptive algorithm
+    does; only when neither changes anything, ask for one more failure before a test on a new
+    sample is no longer assumed to pass. False when nothing changes: no plan exists even
+    optimistically."""
+    reenabled = _reenable(run.store)
+    if closure.pruned is not None:
+        run.complexity_limit = max(run.complexity_limit + 1, closure.pruned)
+    elif not reenabled and closure.withheld:
+        run.evidence += 1
+    log.debug(
+        "iteration %d: complexity limit %d, evidence %d",
+        run.iterations,
+        run.complexity_limit,
+        run.evidence,
+    )
+    return reenabled or closure.narrowed
 
 
 def _reenable(store: StreamStore) -> bool:
