@@ -81,5 +81,12 @@ def test_plans_do_not_depend_on_the_string_hash_seed() -> None:
 def test_state_index_order_does_not_depend_on_insertion_order() -> None:
     facts = [Atom("at", (f"o{i}", f"r{i % 3}")) for i in range(20)] + [Atom("clear", ("o1",))]
     a, b = State(facts), State(reversed(facts))
-    assert a.index == b.index
-    assert a.index["at"] == sorted(a.index["at"], key=lambda x: x.args)
+    for predicate in ("at", "clear", "absent"):
+        assert a.atoms(predicate) == b.atoms(predicate)
+    assert a.atoms("at") == sorted(a.atoms("at"), key=lambda x: x.args)
+    assert [x.args for x in a.atoms("at")][:2] == [("o0", "r0"), ("o1", "r1")]
+    # the per-argument index keeps that order
+    assert a.atoms_with("at", 1, "r0") == b.atoms_with("at", 1, "r0")
+    assert [x.args[0] for x in a.atoms_with("at", 1, "r0")] == sorted(
+        f"o{i}" for i in range(0, 20, 3)
+    )

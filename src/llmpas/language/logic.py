@@ -23,6 +23,18 @@ class Atom:
         if not isinstance(self.args, tuple):
             object.__setattr__(self, "args", tuple(self.args))
 
+    def __hash__(self) -> int:
+        """The dataclass hash, computed once: atoms are hashed millions of times in joins."""
+        cached: int | None = self.__dict__.get("_hash")
+        if cached is None:
+            cached = hash((self.predicate, self.args))
+            object.__setattr__(self, "_hash", cached)
+        return cached
+
+    def __reduce__(self) -> tuple[type[Atom], tuple[str, tuple[str, ...]]]:
+        # the cached hash is not pickled: string hashes differ between processes
+        return (Atom, (self.predicate, self.args))
+
     def __str__(self) -> str:
         return "(" + " ".join((self.predicate, *self.args)) + ")"
 

@@ -85,13 +85,40 @@ class State:
 
     def __init__(self, facts: Iterable[Atom]) -> None:
         self.facts = frozenset(facts)
-        self.index: dict[str, list[Atom]] = defaultdict(list)
+        self._groups: dict[str, list[Atom]] = defaultdict(list)
         for a in self.facts:
-            self.index[a.predicate].append(a)
-        # joins enumerate these lists: sort them so that the order of bindings (and so of
-        # optimistic instances, witnesses, plans) does not depend on the string hash seed
-        for atoms in self.index.values():
-            atoms.sort(key=_args)
+            self._groups[a.predicate].append(a)
+        self._sorted: set[str] = set()
+        self._by_arg: dict[tuple[str, int], dict[str, list[Atom]]] = {}
+
+    def atoms(self, predicate: str) -> list[Atom]:
+        """The state's atoms of ``predicate``, sorted by arguments (on first use: joins
+        enumerate them, so the order of bindings, and so of optimistic instances, witnesses and
+        plans, does not depend on the string hash seed). Do not modify the list."""
+        group = self._groups.get(predicate)
+        if group is None:
+            return []
+        if predicate not in self._sorted:
+            group.sort(key=_args)
+            self._sorted.add(predicate)
+        return group
+
+    def atoms_with(self, predicate: str, position: int, value: str) -> list[Atom]:
+        """The state's atoms of ``predicate`` with ``value`` at ``position`` (sorted, as
+        :meth:`atoms`); the index is built on first use."""
+        key = (predicate, position)
+        index = self._by_arg.get(key)
+        if index is None:
+            index = defaultdict(list)
+            for a in self.atoms(predicate):
+                if position < len(a.args):
+                    index[a.args[position]].append(a)
+            self._by_arg[key] = index
+        return index.get(value, [])
+
+    def count(self, predicate: str) -> int:
+        group = self._groups.get(predicate)
+        return 0 if group is None else len(group)
 
     def __contains__(self, a: Atom) -> bool:
         return a in self.facts
@@ -179,7 +206,7 @@ class Evaluator:
     def _cost(self, f: Formula, env: Env) -> float:
         unbound = sum(1 for v in self._free(f) if v not in env)
         if isinstance(f, Atom) and f.predicate != "=" and f.predicate not in self.rules:
-            n = len(self.s.index.get(f.predicate, ()))
+            n = self.s.count(f.predicate)
             return n / (8.0 ** (len(f.args) - unbound)) if unbound else 0.0
         if not unbound:
             return 0.5  # a test of bound values
@@ -234,7 +261,17 @@ class Evaluator:
                 if self._typed_ok(m, a.args, types):
                     yield m
             return
-        for fact in self.s.index.get(a.predicate, ()):
+        bound = [(k, env.get(t, t)) for k, t in enumerate(a.args)]
+        bound = [(k, v) for k, v in bound if not is_var(v)]
+        if len(bound) == len(a.args):  # ground: a lookup
+            ground = Atom(a.predicate, tuple(v for _, v in bound))
+            if ground in self.s.facts and self._typed_ok(env, a.args, types):
+                yield dict(env)
+            return
+        candidates = (
+            self.s.atoms_with(a.predicate, *bound[0]) if bound else self.s.atoms(a.predicate)
+        )
+        for fact in candidates:
             found = _match(a.args, fact.args, env)
             if found is not None and self._typed_ok(found, a.args, types):
                 yield found

@@ -317,6 +317,17 @@ class Closure:
     def prune(self, complexity: int) -> None:
         self.pruned = complexity if self.pruned is None else min(self.pruned, complexity)
 
+    def within(self, store: StreamStore) -> set[Atom]:
+        """The real facts naming no object above the complexity limit (any instance on the
+        others is above it too, and is counted as left out)."""
+        limit = self.complexity_limit
+        if limit is None:
+            return set(store.facts)
+        high = {x: c for x, c in store.complexity.items() if c > limit}
+        if high:
+            self.prune(min(high.values()))
+        return {a for a in store.facts if high.keys().isdisjoint(a.args)}
+
     @property
     def narrowed(self) -> bool:
         """Whether a bound left anything out."""
@@ -338,8 +349,9 @@ def optimistic_instances(
     or when a bound of ``closure`` says so: its complexity (PDDLStream's: the highest complexity
     of its inputs, real or placeholder, plus the instance's calls + 1 for a stream with outputs)
     exceeds the limit, or it is a test on a placeholder that the evidence says fails."""
-    closer = _Closer(store, max_level, _Namer(shared), closure or Closure())
-    facts = set(store.facts)
+    closure = closure or Closure()
+    closer = _Closer(store, max_level, _Namer(shared), closure)
+    facts = closure.within(store)
     out: list[OptInstance] = []
     streams = [b for b in store.problem.bound_streams.values() if allowed(b)]
     changed = True

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections import Counter
 from dataclasses import dataclass, field
 
 from llmpas.language.bindings import BoundStream
@@ -51,6 +52,7 @@ from llmpas.planning.instances import (
     Closure,
     LimitReached,
     OptInstance,
+    Record,
     StreamFailure,
     StreamStore,
     evaluate_negative_tests,
@@ -100,6 +102,19 @@ class _Run:
         """Whether the stream gets optimistic instances (inlined ones need none, and streams
         with ``p_success=0`` are never assumed)."""
         return b.schema.name not in self.inline and not b.info.never_assumed
+
+    def visible(self, name: str) -> bool:
+        """Whether a real object enters the classical task: in focused planning, only those
+        within the complexity limit (the values of samplers called many times wait until a
+        search fails without them, as their optimistic instances do)."""
+        if self.config.algorithm != "focused":
+            return True
+        return self.store.complexity.get(name, 0) <= self.complexity_limit
+
+    def real_facts(self) -> set[Atom]:
+        """The real facts and rejections the next search sees (see :meth:`visible`)."""
+        facts = self.store.facts | self.store.rejected
+        return {a for a in facts if all(self.visible(x) for x in a.args)}
 
     def remaining(self) -> float:
         return self.config.max_time - (time.perf_counter() - self.started)
@@ -269,27 +284,126 @@ def _reenable(store: StreamStore) -> bool:
 def _evaluate(run: _Run, needed: list[OptInstance], trace: _Trace) -> dict[int, dict[str, str]]:
     """Evaluate a stream plan in order; each placeholder input takes the real output of the
     producer the trace chose for it. Returns, per evaluated instance (by id), its placeholder
-    outputs -> the real names."""
-    store = run.store
-    real: dict[int, dict[str, str]] = {}  # id(evaluated instance) -> placeholder -> real name
-    for inst in needed:
-        sources = trace.sources.get(id(inst), {})
-        inputs = tuple(
+    outputs -> the real names.
+
+    When an instance fails (a test rejects, a function finds nothing), the plan's skeleton is
+    kept and the binding is searched further, as PDDLStream's adaptive algorithm does: the most
+    recently evaluated sampler upstream of the failure draws a new value and only what depends
+    on it is evaluated again, at most ``_RETRIES`` times per failed instance."""
+    binder = _Binder(run, needed, trace)
+    position, retries = 0, Counter[int]()
+    while position < len(needed):
+        if binder.bind(position) or retries[position] >= _RETRIES:
+            position += 1
+        else:
+            back = binder.backtrack(position)
+            if back is None:
+                position += 1
+            else:
+                retries[position] += 1
+                position = back
+        if run.store.out_of_time():
+            break
+    return binder.real
+
+
+_RETRIES = 2  # new values drawn upstream of one failed instance, per stream plan
+
+
+class _Binder:
+    """The bindings of one stream plan, with backtracking to upstream samplers."""
+
+    def __init__(self, run: _Run, needed: list[OptInstance], trace: _Trace) -> None:
+        self.run, self.needed, self.trace = run, needed, trace
+        self.position = {id(inst): k for k, inst in enumerate(needed)}
+        self.real: dict[int, dict[str, str]] = {}  # id(evaluated instance) -> placeholder -> real
+        self.fresh: set[int] = set()  # instances to call for a new value (backtracked to)
+
+    def _inputs(self, inst: OptInstance) -> tuple[str, ...]:
+        sources = self.trace.sources.get(id(inst), {})
+        real = self.real
+        return tuple(
             real.get(id(sources[x]), {}).get(x, x) if x in sources else x for x in inst.inputs
         )
+
+    def bind(self, k: int) -> bool:
+        """Evaluate ``needed[k]`` unless it is bound already; whether it is bound now."""
+        inst = self.needed[k]
+        if id(inst) in self.real:
+            return True
+        inputs = self._inputs(inst)
         if any(is_optimistic(x) for x in inputs):
-            continue  # its producer failed this time
+            return False  # a producer failed
+        store = self.run.store
         rec = store.record(inst.stream, inputs)
         out = store.call(rec)
         rec.enabled = False
         log.debug("  %s(%s) -> %s", inst.stream.schema.name, " ".join(inputs), out)
-        if out is None and rec.outputs:  # bound to inputs evaluated before: their last output
-            out = rec.outputs[-1]
-        if out is not None:
-            real[id(inst)] = dict(zip(inst.outputs, out, strict=True))
-        if store.out_of_time():
-            break
-    return real
+        if out is None and rec.outputs and id(inst) not in self.fresh:
+            out = rec.outputs[-1]  # called before on these inputs: its last output
+        self.fresh.discard(id(inst))
+        if out is None:
+            return False
+        self.real[id(inst)] = dict(zip(inst.outputs, out, strict=True))
+        return True
+
+    def backtrack(self, k: int) -> int | None:
+        """After ``needed[k]`` failed: the position of the latest sampler upstream of it that
+        may give another value, with everything depending on that sampler unbound; None if
+        there is none."""
+        upstream = self._upstream(self.needed[k])
+        for j in sorted((self.position[i] for i in upstream), reverse=True):
+            inst = self.needed[j]
+            rec = self.run.store.records.get((inst.stream.schema.name, self._inputs(inst)))
+            if not inst.outputs or rec is None or rec.exhausted:
+                continue
+            if not self._worth_retrying(self.needed[k], inst, rec):
+                return None
+            for dependent in (*self._downstream(inst), id(inst)):
+                self.real.pop(dependent, None)
+            self.fresh.add(id(inst))
+            return j
+        return None
+
+    def _worth_retrying(self, failed: OptInstance, sampler: OptInstance, rec: Record) -> bool:
+        """Whether a new value of ``sampler`` may make the test ``failed`` pass: when the test
+        takes one of its values directly, only if the same test passed on another of its
+        values (otherwise the failure is taken as structural, e.g. a slot that another block
+        fills, and left to the next search)."""
+        if failed.outputs:
+            return True  # a function or sampler found nothing: try other inputs
+        sources = self.trace.sources.get(id(failed), {})
+        inputs = self._inputs(failed)
+        store = self.run.store
+        for j, x in enumerate(failed.inputs):
+            if sources.get(x) is not sampler:
+                continue
+            k = sampler.outputs.index(x)
+            others = {out[k] for out in rec.outputs} - {inputs[j]}
+            name = failed.stream.schema.name
+            return any(
+                (test := store.records.get((name, (*inputs[:j], o, *inputs[j + 1 :])))) is not None
+                and bool(test.outputs)
+                for o in others
+            )
+        return True
+
+    def _upstream(self, inst: OptInstance) -> set[int]:
+        found: set[int] = set()
+        todo = [inst]
+        while todo:
+            for producer in self.trace.sources.get(id(todo.pop()), {}).values():
+                if id(producer) in self.position and id(producer) not in found:
+                    found.add(id(producer))
+                    todo.append(producer)
+        return found
+
+    def _downstream(self, inst: OptInstance) -> set[int]:
+        return {i for i in self.position if id(inst) in self._upstream_of(i)}
+
+    def _upstream_of(self, key: int) -> set[int]:
+        inst = self.needed[self.position[key]]
+        return self._upstream(inst)
 
 
 @dataclass(frozen=True)
@@ -405,10 +519,13 @@ def _one_level(run: _Run) -> bool:
 # ----------------------------------------------------------------------------------- search
 
 
-def _object_types(run: _Run, opt: list[OptInstance]) -> dict[str, str]:
+def _object_types(run: _Run, opt: list[OptInstance], task: bool = False) -> dict[str, str]:
+    """Every object's type; for the classical ``task``, only the visible real objects (the
+    semantics that check plans range over all of them)."""
     types = dict(run.problem.object_types)
     for name in run.store.values:
-        types.setdefault(name, "object")
+        if not task or run.visible(name):
+            types.setdefault(name, "object")
     for i in opt:
         types.update(dict.fromkeys(i.outputs, "object"))
     return types
@@ -419,7 +536,7 @@ def _update_costs(run: _Run, opt: list[OptInstance]) -> None:
     store = run.store
     run.costs = function_values(
         run.problem,
-        store.facts | store.rejected | {a for i in opt for a in i.certified},
+        run.real_facts() | {a for i in opt for a in i.certified},
         run.cost_cache,
         lambda n: store.values.get(n, n),
     )
@@ -430,10 +547,13 @@ def _search(
 ) -> tuple[tuple[tuple[str, tuple[str, ...]], ...], float] | PlanResult | None:
     """Search once (costs from :func:`_update_costs`): (actions, cost), None when the task is
     unsolvable, or a final result."""
-    store = run.store
-    facts = store.facts | store.rejected
     task = compile_task(
-        run.problem, facts, opt, run.costs, _object_types(run, opt), run.negative_tests
+        run.problem,
+        run.real_facts(),
+        opt,
+        run.costs,
+        _object_types(run, opt, task=True),
+        run.negative_tests,
     )
     budget = min(run.config.search_time, run.remaining())
     if budget <= 0:
