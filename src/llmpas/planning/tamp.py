@@ -19,6 +19,7 @@ call with status ``timeout``, whatever else was found so far.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from collections import Counter
@@ -139,9 +140,45 @@ def solve(
     config: PlannerConfig | None = None,
     classical: ClassicalPlanner | None = None,
 ) -> PlanResult:
-    """Plan for ``problem``; never raises for planning failures (see :class:`PlanStatus`)."""
+    """Plan for ``problem``; never raises for planning failures (see :class:`PlanStatus`).
+
+    With ``share_placeholders``, a task found unsolvable is planned again from scratch with one
+    placeholder per instance (within what is left of ``max_time``), so that sharing never turns
+    a solvable task into an "unsolvable" verdict."""
     config = config or PlannerConfig()
     started = time.perf_counter()
+    result = _solve_once(problem, config, classical, started)
+    if not (config.share_placeholders and result.status is PlanStatus.UNSOLVABLE):
+        return result
+    left = config.max_time - (time.perf_counter() - started)
+    if left <= 0:
+        return result
+    log.debug("shared placeholders found no plan; planning again with one per instance")
+    unique = dataclasses.replace(config, share_placeholders=False, max_time=left)
+    second = _solve_once(problem, unique, classical, time.perf_counter())
+    return dataclasses.replace(second, stats=_added(result.stats, second.stats))
+
+
+def _added(a: PlanStats, b: PlanStats) -> PlanStats:
+    calls = Counter(a.stream_calls)
+    calls.update(b.stream_calls)
+    return PlanStats(
+        algorithm=b.algorithm,
+        iterations=a.iterations + b.iterations,
+        stream_calls=dict(calls),
+        stream_time=a.stream_time + b.stream_time,
+        translate_time=a.translate_time + b.translate_time,
+        search_time=a.search_time + b.search_time,
+        total_time=a.total_time + b.total_time,
+    )
+
+
+def _solve_once(
+    problem: Problem,
+    config: PlannerConfig,
+    classical: ClassicalPlanner | None,
+    started: float,
+) -> PlanResult:
     if classical is None:
         search = {} if config.search is None else {"search": config.search}
         classical = FastDownward(
