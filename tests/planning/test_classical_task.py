@@ -62,7 +62,7 @@ def shop_task(**changes: object) -> ClassicalTask:
             ("marked", ("a",)),
             ("at", ("i1", "depot")),  # a repeated fact
         ),
-        "values": tuple(values),
+        "values": (*values, ("move-cost", ("depot", "elsewhere"), 5)),  # not an object: as text
         "goal": "(and (at i2 b2) (at i1 b2) (not (open b1)) (not (marked a))"
         " (forall (?i - item) (not (at ?i depot))))",
     }
@@ -85,15 +85,16 @@ def test_data_and_text_give_the_same_sas_task(planner: FastDownward) -> None:
     assert by_data.actions == planner.solve(SHOP_DOMAIN, task.text).actions
 
 
+def _no_text(**files: str) -> None:
+    raise RuntimeError("the problem text was parsed")
+
+
 def test_data_is_not_rendered_and_parsed_as_text(
     planner: FastDownward, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     from fast_downward.translate import pddl_parser
 
-    def no_text(**files: str) -> None:
-        raise RuntimeError("the problem text was parsed")
-
-    monkeypatch.setattr(pddl_parser, "open", no_text)  # the forked translator inherits it
+    monkeypatch.setattr(pddl_parser, "open", _no_text)  # the forked translator inherits it
     assert planner.solve_task(SHOP_DOMAIN, shop_task()).solved
     by_text = planner.solve(SHOP_DOMAIN, shop_task().text)
     assert by_text.message == "translation failed: the problem text was parsed"
@@ -129,6 +130,7 @@ def test_untyped_objects_keep_their_type_in_the_text(tmp_path: Path) -> None:
         {"goal": "(and (at i1 b2)"},  # unbalanced goal
         {"goal": "(at i1 nowhere)"},  # unknown object in the goal
         {"domain_name": "other"},
+        {"name": "shop 1"},  # a name the tokenizer splits
         {"objects": (("a(b", "object"),)},  # a name the tokenizer splits
     ],
 )
@@ -159,11 +161,17 @@ class Recorder:
 
 
 @pytest.mark.parametrize(("family", "defer"), [("packed", True), ("mirror", False)])
-def test_bench_tamp_tasks_translate_the_same_from_data(family: str, defer: bool) -> None:
+def test_bench_tamp_tasks_translate_the_same_from_data(
+    family: str, defer: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from fast_downward.translate import pddl_parser
+
     recorder = Recorder()
     assert isinstance(recorder, TaskPlanner)
     _, problem = make_problem(family, 3, 0)
-    result = solve(problem, PlannerConfig(defer=defer, max_time=60.0), classical=recorder)
+    with monkeypatch.context() as patch:  # every task goes the data path
+        patch.setattr(pddl_parser, "open", _no_text)
+        result = solve(problem, PlannerConfig(defer=defer, max_time=60.0), classical=recorder)
     assert result.status is PlanStatus.SOLVED
     assert recorder.tasks
     for domain, task in recorder.tasks[:3]:

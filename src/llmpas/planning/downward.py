@@ -189,10 +189,9 @@ class ClassicalTask:
     metric: bool = True
 
     def __post_init__(self) -> None:
-        if not (_plain_word(self.name) and _plain_word(self.domain_name)):
-            raise ValueError(f"bad problem or domain name {self.name!r} / {self.domain_name!r}")
-        if not self.goal.strip():
-            raise ValueError("a classical task needs a goal")
+        # names and facts are the translator's to judge (as in a file): see _translator_task
+        if not all(isinstance(x, tuple) for x in (self.objects, self.init, self.values)):
+            raise TypeError("objects, init and values of a ClassicalTask must be tuples")
 
     @property
     def problem_text(self) -> str:
@@ -494,7 +493,7 @@ def _translator_task(domain_file: Path, problem: ClassicalTask) -> pddl.Task | N
     from fast_downward.translate.pddl_parser import parsing_functions as parsing
 
     words = {w for pair in problem.objects for w in pair} | {p for p, _ in problem.init}
-    words |= {f for f, _, _ in problem.values}
+    words |= {f for f, _, _ in problem.values} | {problem.name, problem.domain_name}
     if not all(_plain_word(w) for w in words) or ";" in problem.goal:
         return None
     try:
@@ -510,7 +509,11 @@ def _translator_task(domain_file: Path, problem: ClassicalTask) -> pddl.Task | N
         init: list[pddl.Atom | pddl.Assign] = []
         assigned: dict[pddl.PrimitiveNumericExpression, int] = {}
         for function, args, value in problem.values:
-            head = pddl.PrimitiveNumericExpression(function.lower(), [terms[a] for a in args])
+            # the parser takes a value's arguments as they are (objects or not)
+            if not all(a in terms or _plain_word(a) for a in args):
+                return None
+            lowered_args = [terms.get(a) or a.lower() for a in args]
+            head = pddl.PrimitiveNumericExpression(function.lower(), lowered_args)
             if type(value) is not int or value < 0 or assigned.get(head, value) != value:
                 return None
             if head not in assigned:  # a repetition of the same value is ignored, as in text
