@@ -18,7 +18,12 @@ from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics, replay
 from llmpas.language.streams import read_streams
 from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, solve
-from llmpas.planning.downward import ClassicalPlan, ClassicalStatus, FastDownward
+from llmpas.planning.downward import (
+    ClassicalPlan,
+    ClassicalStatus,
+    ClassicalTask,
+    FastDownward,
+)
 from llmpas.planning.result import Algorithm
 
 DATA = Path(__file__).parent / "data"
@@ -262,11 +267,11 @@ def test_a_plan_whose_streams_all_succeed_is_kept_without_searching_again() -> N
     class Counting(FastDownward):
         calls = 0
 
-        def solve(
-            self, domain_pddl: str, problem_pddl: str, *, max_time: float | None = None
+        def solve_task(
+            self, domain_pddl: str, task: ClassicalTask, *, max_time: float | None = None
         ) -> ClassicalPlan:
             Counting.calls += 1
-            return super().solve(domain_pddl, problem_pddl, max_time=max_time)
+            return super().solve_task(domain_pddl, task, max_time=max_time)
 
     problem = make_problem(WIDE, n_blocks=2, n_goal=2, deferred_reach=False)
     result = solve(problem, PlannerConfig(max_time=60), classical=Counting())

@@ -42,6 +42,7 @@ from llmpas.language.logic import (
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import State, nnf
 from llmpas.language.streams import StreamSchema
+from llmpas.planning.downward import ClassicalTask
 from llmpas.planning.externals import external_rewrite
 from llmpas.planning.instances import (
     OptInstance,
@@ -52,6 +53,9 @@ from llmpas.planning.instances import (
 )
 
 COST_SCALE = 100
+
+#: One classical task: the problem as data; its PDDL text is ``.text``.
+Task = ClassicalTask
 
 
 def is_rejection(a: Atom) -> bool:
@@ -265,13 +269,6 @@ def _vars(n: int) -> tuple[Param, ...]:
     return tuple(Param(f"?x{i}") for i in range(n))
 
 
-@dataclass(frozen=True)
-class Task:
-    """One classical task: the problem text."""
-
-    problem_text: str
-
-
 def function_values(
     problem: Problem,
     facts: Iterable[Atom],
@@ -341,6 +338,8 @@ def compile_task(
     object_types: Mapping[str, str],
     negative_tests: set[str],
 ) -> Task:
+    """The classical problem as data (its PDDL text is ``.text``): objects and init sorted,
+    ``(= (total-cost) 0)`` and the scaled costs, the compiled goal."""
     wanted = {rejected_predicate(p) for p in negative_tests}
     init = {a for a in facts if a.predicate in wanted or not is_rejection(a)}
     init |= {a for i in optimistic for a in i.certified}
@@ -349,21 +348,16 @@ def compile_task(
         for t in a.args:
             objects.setdefault(t, "object")
     constants = {c.name for c in problem.domain.constants}
-    obj_text = " ".join(
-        o if t == "object" else f"{o} - {t}"
-        for o, t in sorted(objects.items())
-        if o not in constants
+    values: list[tuple[str, tuple[str, ...], int]] = [("total-cost", (), 0)]  # every action costs
+    values += [(t.name, t.args, _scaled(v)) for t, v in sorted(costs.items(), key=str)]
+    return Task(
+        problem.name,
+        problem.domain.name,
+        tuple((o, t) for o, t in sorted(objects.items()) if o not in constants),
+        tuple((a.predicate, a.args) for a in sorted(init)),
+        tuple(values),
+        str(compile_goal(problem, negative_tests)),
     )
-    init_text = [str(a) for a in sorted(init)]
-    init_text.append("(= (total-cost) 0)")  # compile_domain gives every action a cost
-    init_text += [f"(= {t} {_scaled(v)})" for t, v in sorted(costs.items(), key=str)]
-    goal = compile_goal(problem, negative_tests)
-    text = (
-        f"(define (problem {problem.name})\n  (:domain {problem.domain.name})\n"
-        f"  (:objects {obj_text})\n  (:init\n    " + "\n    ".join(init_text) + ")\n"
-        f"  (:goal {goal})\n  (:metric minimize (total-cost)))\n"
-    )
-    return Task(text)
 
 
 __all__ = [

@@ -47,6 +47,7 @@ from llmpas.planning.downward import (
     DownwardConfig,
     FastDownward,
     PlannerNotFound,
+    TaskPlanner,
 )
 from llmpas.planning.guards import guard_quantifiers
 from llmpas.planning.instances import (
@@ -595,7 +596,11 @@ def _search(
     budget = min(run.config.search_time, run.remaining())
     if budget <= 0:
         return _time_limit(run)
-    res: ClassicalPlan = run.classical.solve(run.domain_text, task.problem_text, max_time=budget)
+    res: ClassicalPlan = (
+        run.classical.solve_task(run.domain_text, task, max_time=budget)
+        if isinstance(run.classical, TaskPlanner)
+        else run.classical.solve(run.domain_text, task.text, max_time=budget)
+    )
     run.translate_time += res.translate_time
     run.search_time += res.search_time
     log.debug(
