@@ -20,10 +20,23 @@ class PlannerConfig:
     stream is evaluated at planning time.
 
     ``share_placeholders``: when True, instances of a stream evaluated while planning share one
-    placeholder per (stream, output, level), as in PDDLStream: far smaller tasks where a
-    ``forall`` ranges over placeholders (``llmpas bench tamp``), but not complete: on the
-    household's blocked-microwave task it exhausted every instance and reported a solvable task
-    unsolvable. Off by default (one placeholder per instance).
+    placeholder per (stream, output, level), as in PDDLStream, so that a ``forall`` ranges over
+    fewer objects. Sharing alone is not complete (on the household's blocked-microwave task it
+    used up a sampler's outputs on one shared pose and found the goal ``(heated bread)``
+    unsolvable), so a task found unsolvable with shared placeholders is planned again from
+    scratch with one per instance. Off by default: with the task kept small by the complexity
+    limit, the guarded ``forall`` and the binding search, sharing measured no faster on
+    ``llmpas bench tamp`` (docs/results/tamp.md), and it changes which plans are found.
+
+    Focused planning is adaptive, as PDDLStream's: an instance is assumed only while its
+    *complexity* (the highest complexity of its inputs plus, for a stream with outputs, its
+    calls + 1) is within a limit that starts at ``max_level`` and rises when a search fails;
+    real objects above the limit stay out of the classical task. A test on a new sample is not
+    assumed to pass when the same test failed on every earlier output of that sampler (relaxed
+    when a search fails and nothing else can be widened). When an evaluated stream plan fails,
+    its skeleton is kept: the latest sampler upstream of the failure draws a new value (twice
+    at most per failure, and only where the same test passed on another of its values) before
+    planning again.
 
     Limits. *Counted* limits make the verdict a function of the problem and the config only;
     reaching one ends planning with status ``limit`` and a message naming it:
