@@ -157,3 +157,23 @@ def test_packed_trials_that_used_to_wander_are_solved_within_counted_limits(
     )
     result = solve(problem, config)
     assert result.status is PlanStatus.SOLVED, result.message
+
+
+def test_a_plan_over_objects_above_the_complexity_limit_still_has_its_costs() -> None:
+    # the kitchen example, 3 objects, nothing deferred, seed 4: the evaluated plan was kept with
+    # real values the limit had left out of the task, and its cost lacked (distance s1 s12)
+    from llmpas.examples import get_example
+
+    problem = get_example("mobile").make_problem(3, 4)
+    config = PlannerConfig(
+        defer=False,
+        seed=4,
+        max_time=600,
+        search_time=300,
+        max_iterations=50,
+        max_stream_calls=2000,
+        max_empty_samples=100,
+    )
+    result = solve(problem, config)
+    assert result.status is PlanStatus.SOLVED, result.message
+    assert result.plan is not None and result.plan.cost > 0

@@ -508,7 +508,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--share-placeholders",
         action="store_true",
-        help="one placeholder per stream output and level, as PDDLStream (not complete)",
+        help="one placeholder per stream output and level, as PDDLStream (an unsolvable task "
+        "is planned again with one per instance)",
     )
     add_executor_arguments(p)
 

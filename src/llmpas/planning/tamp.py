@@ -574,7 +574,7 @@ def _update_costs(run: _Run, opt: list[OptInstance]) -> None:
     store = run.store
     run.costs = function_values(
         run.problem,
-        run.real_facts() | {a for i in opt for a in i.certified},
+        store.facts | store.rejected | {a for i in opt for a in i.certified},
         run.cost_cache,
         lambda n: store.values.get(n, n),
     )
@@ -585,11 +585,12 @@ def _search(
 ) -> tuple[tuple[tuple[str, tuple[str, ...]], ...], float] | PlanResult | None:
     """Search once (costs from :func:`_update_costs`): (actions, cost), None when the task is
     unsolvable, or a final result."""
+    hidden = {n for n in run.store.complexity if not run.visible(n)}
     task = compile_task(
         run.problem,
         run.real_facts(),
         opt,
-        run.costs,
+        {t: v for t, v in run.costs.items() if hidden.isdisjoint(t.args)},
         _object_types(run, opt, task=True),
         run.negative_tests,
     )
