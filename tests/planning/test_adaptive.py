@@ -14,7 +14,7 @@ from llmpas.language.domain import parse_domain
 from llmpas.language.problem import Problem
 from llmpas.language.streams import parse_streams
 from llmpas.planning import PlannerConfig, PlanStatus, solve
-from llmpas.planning.downward import ClassicalPlan, ClassicalStatus
+from llmpas.planning.downward import ClassicalPlan, ClassicalStatus, FastDownward
 from llmpas.planning.instances import Closure, StreamStore, optimistic_instances
 
 DOMAIN = """
@@ -115,8 +115,6 @@ class _Unsolvable:
     """A classical planner that finds nothing while placeholders are shared, then delegates."""
 
     def __init__(self) -> None:
-        from llmpas.planning.downward import FastDownward
-
         self.inner = FastDownward()
         self.tasks: list[str] = []
 

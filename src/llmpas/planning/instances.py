@@ -143,6 +143,10 @@ class StreamStore:
         nothing). An object produced by that call has this complexity."""
         return self.input_complexity(rec.inputs) + _call_weight(rec.bound, rec.calls)
 
+    def above(self, limit: int) -> dict[str, int]:
+        """The real objects whose complexity exceeds ``limit``, with their complexity."""
+        return {x: c for x, c in self.complexity.items() if c > limit}
+
     def record(self, bound: BoundStream, inputs: tuple[str, ...]) -> Record:
         key = (bound.schema.name, inputs)
         if key not in self.records:
@@ -158,6 +162,7 @@ class StreamStore:
                 f"stream-call limit reached: max_stream_calls={self.max_calls} calls made, "
                 f"the next would be {rec.bound.schema.name}({' '.join(rec.inputs)})"
             )
+        complexity = self.complexity_of(rec)  # of what this call produces
         start = time.perf_counter()
         try:
             out = self._next(rec)
@@ -177,7 +182,6 @@ class StreamStore:
                     for a in schema.certified
                 }
             return None
-        complexity = self.input_complexity(rec.inputs) + _call_weight(rec.bound, rec.calls - 1)
         names = tuple(self._name(v) for v in out)
         for n in names:
             if n not in self._given:
@@ -323,7 +327,7 @@ class Closure:
         limit = self.complexity_limit
         if limit is None:
             return set(store.facts)
-        high = {x: c for x, c in store.complexity.items() if c > limit}
+        high = store.above(limit)
         if high:
             self.prune(min(high.values()))
         return {a for a in store.facts if high.keys().isdisjoint(a.args)}

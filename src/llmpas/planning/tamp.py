@@ -105,18 +105,13 @@ class _Run:
         with ``p_success=0`` are never assumed)."""
         return b.schema.name not in self.inline and not b.info.never_assumed
 
-    def visible(self, name: str) -> bool:
-        """Whether a real object enters the classical task: in focused planning, only those
-        within the complexity limit (the values of samplers called many times wait until a
-        search fails without them, as their optimistic instances do)."""
+    def hidden(self) -> set[str]:
+        """The real objects kept out of the classical task: in focused planning, those above
+        the complexity limit (the values of samplers called many times wait until a search
+        fails without them, as their optimistic instances do)."""
         if self.config.algorithm != "focused":
-            return True
-        return self.store.complexity.get(name, 0) <= self.complexity_limit
-
-    def real_facts(self) -> set[Atom]:
-        """The real facts and rejections the next search sees (see :meth:`visible`)."""
-        facts = self.store.facts | self.store.rejected
-        return {a for a in facts if all(self.visible(x) for x in a.args)}
+            return set()
+        return set(self.store.above(self.complexity_limit))
 
     def remaining(self) -> float:
         return self.config.max_time - (time.perf_counter() - self.started)
@@ -437,11 +432,13 @@ class _Binder:
         return found
 
     def _downstream(self, inst: OptInstance) -> set[int]:
-        return {i for i in self.position if id(inst) in self._upstream_of(i)}
-
-    def _upstream_of(self, key: int) -> set[int]:
-        inst = self.needed[self.position[key]]
-        return self._upstream(inst)
+        """What depends on ``inst``: one pass, since producers come first."""
+        found = {id(inst)}
+        for later in self.needed[self.position[id(inst)] + 1 :]:
+            producers = self.trace.sources.get(id(later), {}).values()
+            if any(id(p) in found for p in producers):
+                found.add(id(later))
+        return found - {id(inst)}
 
 
 @dataclass(frozen=True)
@@ -557,12 +554,14 @@ def _one_level(run: _Run) -> bool:
 # ----------------------------------------------------------------------------------- search
 
 
-def _object_types(run: _Run, opt: list[OptInstance], task: bool = False) -> dict[str, str]:
-    """Every object's type; for the classical ``task``, only the visible real objects (the
-    semantics that check plans range over all of them)."""
+def _object_types(
+    run: _Run, opt: list[OptInstance], hidden: set[str] | None = None
+) -> dict[str, str]:
+    """Every object's type, but those ``hidden`` from the classical task (the semantics that
+    check plans range over all of them)."""
     types = dict(run.problem.object_types)
     for name in run.store.values:
-        if not task or run.visible(name):
+        if not hidden or name not in hidden:
             types.setdefault(name, "object")
     for i in opt:
         types.update(dict.fromkeys(i.outputs, "object"))
@@ -585,13 +584,14 @@ def _search(
 ) -> tuple[tuple[tuple[str, tuple[str, ...]], ...], float] | PlanResult | None:
     """Search once (costs from :func:`_update_costs`): (actions, cost), None when the task is
     unsolvable, or a final result."""
-    hidden = {n for n in run.store.complexity if not run.visible(n)}
+    hidden = run.hidden()
+    store = run.store
     task = compile_task(
         run.problem,
-        run.real_facts(),
+        {a for a in store.facts | store.rejected if hidden.isdisjoint(a.args)},
         opt,
         {t: v for t, v in run.costs.items() if hidden.isdisjoint(t.args)},
-        _object_types(run, opt, task=True),
+        _object_types(run, opt, hidden),
         run.negative_tests,
     )
     budget = min(run.config.search_time, run.remaining())
