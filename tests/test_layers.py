@@ -53,3 +53,31 @@ def test_a_back_import_breaks_a_contract(
     result = lint(src, tmp_path)
     assert result.returncode != 0
     assert f"{contract}" in result.stdout and "BROKEN" in result.stdout
+
+
+@pytest.mark.parametrize(
+    ("importer", "back_import", "contract"),
+    [
+        # a new world package is covered by the contracts as it is, with no edit to them
+        ("worlds/newworld/session.py", "import llmpas.reasoning.goals", "worlds take only"),
+        ("system.py", "import llmpas.worlds.newworld.session", "system imports no world"),
+        ("worlds/api.py", "import llmpas.worlds.newworld.session", "the world protocol"),
+        ("reasoning/tables.py", "import llmpas.reasoning.methods", "data tables are a leaf"),
+    ],
+)
+def test_a_new_world_is_held_to_the_contracts_unchanged(
+    tmp_path: Path, importer: str, back_import: str, contract: str
+) -> None:
+    src = tmp_path / "src"
+    shutil.copytree(ROOT / "src" / "llmpas", src / "llmpas")
+    shutil.copy(CONFIG, tmp_path / ".importlinter")
+    world = src / "llmpas" / "worlds" / "newworld"
+    world.mkdir()
+    (world / "__init__.py").write_text('"""a world the contracts do not name"""\n')
+    (world / "session.py").write_text("from llmpas.reasoning.tables import Vocabulary  # noqa\n")
+    assert "0 broken" in lint(src, tmp_path).stdout  # the data tables are allowed to worlds
+    target = src / "llmpas" / importer
+    target.write_text(target.read_text() + f"\n{back_import}  # noqa\n")
+    result = lint(src, tmp_path)
+    assert result.returncode != 0
+    assert contract in result.stdout and "BROKEN" in result.stdout

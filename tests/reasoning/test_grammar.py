@@ -12,8 +12,9 @@ from typing import Any
 import pytest
 
 from llmpas.language.logic import Atom, Not
-from llmpas.reasoning.goals import GoalStatus, Literal, Vocabulary, parse_goals
+from llmpas.reasoning.goals import GoalStatus, Literal, parse_goals
 from llmpas.reasoning.grammar import gbnf, json_schema
+from llmpas.reasoning.tables import Vocabulary
 
 from ..tiny_model import needs_tiny_model, tiny_backend
 from ..tiny_model import sample as tiny_sample

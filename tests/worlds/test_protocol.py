@@ -1,7 +1,7 @@
 """The world protocol (:mod:`llmpas.worlds.api`) and the one loop in :mod:`llmpas.system`,
 tested against a tiny in-memory world written only against the protocol: a library whose books
 sit on shelves (a hidden truth), searched by ``(inspected SHELF)`` and located by
-``(in BOOK SHELF)``, with no kitchen word and no simulator.
+``(in BOOK SHELF)``, a failed look fails ``Spotted``, with no kitchen word and no simulator.
 
 It shows that the loop reads a world's search model rather than the household's words, that
 the protocol is enough to plan, execute, reason and recover, and that the system's run folder
@@ -30,12 +30,10 @@ from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics
 from llmpas.planning import PlannerConfig
 from llmpas.planning.result import Plan, PlanStep
-from llmpas.reasoning.goals import Vocabulary
 from llmpas.reasoning.llm import Request, Response
-from llmpas.reasoning.program import Call
-from llmpas.reasoning.prompts import PromptTables
+from llmpas.reasoning.tables import Call, PromptTables, Vocabulary
 from llmpas.system import LoopSettings, run, run_once
-from llmpas.worlds.api import RunOptions, SearchModel, Session, World, believed_lost
+from llmpas.worlds.api import RunOptions, SearchModel, Session, World
 
 DOMAIN = """
 (define (domain library)
@@ -71,7 +69,10 @@ def _ok(v: Values, ctx: Context) -> SkillResult:
 
 
 class Builder(PlanBuilder):
-    """The library's plan -> subtrees: a fetch checks that the book is really there."""
+    """The library's plan -> subtrees: a fetch checks that the book is really there (its own
+    constraint name: the core knows it only as this builder's ``detection``)."""
+
+    detection = "Spotted"
 
     def __init__(
         self, problem: Problem, plan: Plan, truth: Mapping[str, str], flaky: list[str]
@@ -92,7 +93,7 @@ class Builder(PlanBuilder):
         if step.action == "fetch":
             book, shelf = step.args
             seen = Constraint(
-                "Detected",
+                "Spotted",
                 lambda v, ctx: None if self.truth[book] == shelf else f"no {book} on {shelf}",
                 lambda v: Atom("in", (book, shelf)),
             )
@@ -117,7 +118,7 @@ class Builder(PlanBuilder):
 class ShelfSearch:
     predicate = "inspected"
     location = "in"
-    detection = "Detected"
+    detection = "Spotted"
 
     def __init__(self, belief: Belief) -> None:
         self.belief = belief
@@ -130,7 +131,7 @@ class ShelfSearch:
 
     def lost(self, obj: str) -> bool:
         place = next((a.args[1] for a in self.belief.matching("in", obj)), None)
-        return obj == "atlas" and believed_lost(self.belief, obj, place)
+        return obj == "atlas" and place is None and not self.belief.matching("carrying", obj)
 
 
 class LibrarySession:

@@ -10,14 +10,12 @@ from __future__ import annotations
 import time
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, TypeVar
+from typing import Any
 
 import numpy as np
 
 from llmpas.execution.world import Observation, Perception, Robot
 from llmpas.language.logic import Atom
-
-T = TypeVar("T")
 
 
 class Belief:
@@ -52,31 +50,6 @@ class Belief:
             if a.predicate == predicate
             and all(x is None or x == y for x, y in zip(args, a.args, strict=False))
         )
-
-    def rests_at(self, obj: str, pose: Any | None) -> None:
-        """Believe ``obj`` rests at ``pose`` (a value with a ``region``; None: whereabouts
-        unknown): its ``pose``, ``atpose`` and ``supported`` facts are replaced."""
-        self.facts -= {
-            a
-            for a in self.facts
-            if a.predicate in ("atpose", "supported", "pose") and a.args[0] == obj
-        }
-        if pose is None:
-            return
-        p = self.name(f"p_{obj}", pose)
-        self.facts |= {
-            Atom("pose", (obj, p)),
-            Atom("atpose", (obj, p)),
-            Atom("supported", (obj, p, pose.region)),
-        }
-
-    def pose_of(self, obj: str, kind: type[T]) -> T | None:
-        """The value of the pose ``obj`` is believed at, if it is a ``kind``."""
-        for a in self.facts:
-            if a.predicate == "atpose" and a.args[0] == obj:
-                value = self.values.get(a.args[1])
-                return value if isinstance(value, kind) else None
-        return None
 
 
 @dataclass(frozen=True)

@@ -3,12 +3,16 @@ move merged with the action after it), the step's precondition checked in the be
 PDDL effects applied to the belief on success, and the planned stream values adopted.
 
 A world subclasses :class:`PlanBuilder` and supplies its recipes (dimensions and sub-actions per
-action), how many samples a subtree may draw, and how it forgets where an object is.
+action), how many samples a subtree may draw, how it forgets where an object is, and its own words:
+how its plans move a mobile base (:class:`BaseMoves`), which stream facts about a produced value
+the belief keeps, and which constraint means "not found where believed". Nothing here names a
+predicate, an action or a stream of any particular domain.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 from typing import Any
 
 from llmpas.execution.anomaly import Failure
@@ -20,21 +24,45 @@ from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics
 from llmpas.planning.result import Plan, PlanStep
 
-ADOPTED = frozenset({"pose", "supported", "grasp"})  # stream facts the belief keeps
-BASE_STREAMS = ("inverse-kinematics", "sample-view")  # deferred outputs that are base poses
 Recipe = tuple[tuple[Dimension, ...], tuple[SubAction, ...]]
 
 
+@dataclass(frozen=True)
+class BaseMoves:
+    """How a world's plans move a mobile base (all empty for a robot without one).
+
+    ``action``: the base move merged into the action after it (when that action is one of the
+    builder's ``merged``); ``fluent``: the predicate holding where the base is, which the subtree
+    satisfies itself (never checked against the belief); ``streams``: deferred streams whose
+    outputs are base poses; ``dims``: the subtree dimensions that hold the base pose the robot
+    used (the first one set wins); ``kind``: the unary fact a base pose value gets."""
+
+    action: str | None = None
+    fluent: str | None = None
+    streams: tuple[str, ...] = ()
+    dims: tuple[str, ...] = ()
+    kind: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.streams and not (self.dims and self.kind):
+            raise ValueError("base-pose streams need the dimensions and the fact that hold them")
+
+
 def failing_literal(
-    sem: Semantics, belief: Belief, step: PlanStep, problem: Problem, plan: Plan
+    sem: Semantics,
+    belief: Belief,
+    step: PlanStep,
+    problem: Problem,
+    plan: Plan,
+    unchecked: frozenset[str] = frozenset(),
 ) -> Formula | None:
     """The first conjunct of the step's precondition that the believed state makes false.
 
-    Literals over stream-certified predicates (Kin, View, ...) and the base pose are not checked
-    here: the subtree satisfies them itself, with its samplers."""
+    Literals over stream-certified predicates (Kin, View, ...) and the ``unchecked`` ones (a
+    base pose) are not checked here: the subtree satisfies them itself, with its samplers."""
     action = problem.domain.action(step.action)
     env = dict(zip((p.name for p in action.params), step.args, strict=True))
-    handled = set(problem.streams.certified_predicates) | {"atbconf"}
+    handled = set(problem.streams.certified_predicates) | unchecked
     state = sem.state(belief.facts | plan.certified)
     for c in conjuncts(action.precondition):
         inner = c.arg if isinstance(c, Not) else c
@@ -57,7 +85,10 @@ class PlanBuilder:
     problem: Problem
     plan: Plan
     sem: Semantics
-    merged: tuple[str, ...] = ()  # actions a preceding move_base is merged into
+    merged: tuple[str, ...] = ()  # actions a preceding base move is merged into
+    base: BaseMoves = BaseMoves()
+    adopted: frozenset[str] = frozenset()  # stream facts about a produced value the belief keeps
+    detection: str | None = None  # the constraint whose failure: not where it was believed
 
     # -------------------------------------------------------------- what a world supplies
     def recipe(self, step: PlanStep) -> Recipe:
@@ -81,7 +112,8 @@ class PlanBuilder:
         i = 0
         while i < len(steps):
             merge = (
-                steps[i].action == "move_base"
+                self.base.action is not None
+                and steps[i].action == self.base.action
                 and i + 1 < len(steps)
                 and steps[i + 1].action in self.merged
             )
@@ -128,7 +160,9 @@ class PlanBuilder:
         last: dict[str, Formula] = {}
 
         def check(v: Values, ctx: Context) -> str | None:
-            lit = failing_literal(self.sem, ctx.belief, step, self.problem, self.plan)
+            lit = failing_literal(
+                self.sem, ctx.belief, step, self.problem, self.plan, self.unchecked
+            )
             if lit is None:
                 return None
             last["lit"] = lit
@@ -139,17 +173,27 @@ class PlanBuilder:
 
         return Constraint("Precondition", check, atom)
 
+    @property
+    def unchecked(self) -> frozenset[str]:
+        """Precondition predicates the subtree satisfies itself (the base pose)."""
+        return frozenset() if self.base.fluent is None else frozenset({self.base.fluent})
+
+    def _base_used(self, st: PlanStep, v: Values, ctx: Context) -> None:
+        """Base-pose placeholders of deferred streams get the pose the robot actually used."""
+        for ref in st.deferred:
+            if ref.stream not in self.base.streams or self.base.kind is None:
+                continue
+            base = next((v[d] for d in self.base.dims if d in v), None)
+            ctx.belief.values.update(dict.fromkeys(ref.outputs, base))
+            ctx.belief.facts |= {Atom(self.base.kind, (o,)) for o in ref.outputs}
+
     def _effects(self, steps: list[PlanStep]) -> Callable[[Values, Context], None]:
         """Apply the PDDL effects of the steps to the belief; base placeholders get the pose
         the robot actually used."""
 
         def apply(v: Values, ctx: Context) -> None:
             for st in steps:
-                for ref in st.deferred:
-                    if ref.stream in BASE_STREAMS:
-                        base = v.get("base", v.get("view_base"))
-                        ctx.belief.values.update(dict.fromkeys(ref.outputs, base))
-                        ctx.belief.facts |= {Atom("bconf", (o,)) for o in ref.outputs}
+                self._base_used(st, v, ctx)
                 self._adopt(st, ctx)
                 action = self.problem.domain.action(st.action)
                 state = self.sem.state(ctx.belief.facts | self.plan.certified)
@@ -170,15 +214,15 @@ class PlanBuilder:
                 continue  # only what streams produced
             ctx.belief.values[name] = value
             ctx.belief.facts |= {
-                a for a in self.plan.certified if a.predicate in ADOPTED and name in a.args
+                a for a in self.plan.certified if a.predicate in self.adopted and name in a.args
             }
 
     def _forget(self, step: PlanStep) -> Callable[[Failure, Context], None]:
         def forget(failure: Failure, ctx: Context) -> None:
-            if failure.constraint.name == "Detected" and step.args:
+            if failure.constraint.name == self.detection and step.args:
                 self.forget_object(ctx.belief, step.args[0])  # not where it was believed
 
         return forget
 
 
-__all__ = ["ADOPTED", "PlanBuilder", "Recipe", "failing_literal", "shown"]
+__all__ = ["BaseMoves", "PlanBuilder", "Recipe", "failing_literal", "shown"]

@@ -19,7 +19,7 @@ from collections.abc import Mapping
 from llmpas.language.logic import Atom, Not
 from llmpas.language.sexpr import SList, Sym, parse_all
 from llmpas.reasoning.llm import Request, Response
-from llmpas.reasoning.program import Call
+from llmpas.reasoning.tables import Call
 
 REPLAN = "replan"
 FIRST_LOOK = "No reasoning: do the task again from what the robot now believes."

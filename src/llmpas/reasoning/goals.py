@@ -39,12 +39,12 @@ import bisect
 import enum
 import json
 import re
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
-from types import MappingProxyType
 from typing import Any
 
 from llmpas.language.logic import Atom, Not
+from llmpas.reasoning.tables import CONNECTIVES, Vocabulary
 
 MAX_CHARS = 20_000
 """Longer answers are rejected unread."""
@@ -55,123 +55,11 @@ MAX_GOALS = 32
 MAX_ERRORS = 12
 """Error lines kept; further problems are summarised in one extra line."""
 
-_NAME = re.compile(r"[a-z][a-z0-9_-]*\Z")
 _NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?\Z")
 _MARKER = re.compile(r"\b(?:answer|goals?)\b[*_ \t]*:", re.IGNORECASE)
 _JSON_GOALS = re.compile(r'\{\s*"goals"\s*:', re.IGNORECASE)
 _FENCE = re.compile(r"```")
 _TAG = re.compile(r"[A-Za-z0-9_+.-]*\Z")
-_RESERVED = frozenset({"and", "not"})
-_CONNECTIVES = frozenset(
-    {
-        "or",
-        "imply",
-        "exists",
-        "forall",
-        "when",
-        "define",
-        "either",
-        "=",
-        "<",
-        ">",
-        "<=",
-        ">=",
-        "increase",
-        "decrease",
-        "assign",
-        "preference",
-        "always",
-        "sometime",
-        "at-most-once",
-        "sometime-after",
-        "sometime-before",
-    }
-)
-
-
-@dataclass(frozen=True)
-class Vocabulary:
-    """What goals may mention: goal predicates with, per argument, the set of allowed objects.
-
-    ``predicates`` maps a lower-case predicate name to one non-empty set of allowed object names
-    per argument position. Names must match ``[a-z][a-z0-9_-]*`` (upper case is lowered).
-    """
-
-    predicates: Mapping[str, tuple[frozenset[str], ...]]
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.predicates, Mapping):
-            raise TypeError(
-                "predicates must be a mapping from name to allowed objects per argument"
-            )
-        table: dict[str, tuple[frozenset[str], ...]] = {}
-        for name, positions in self.predicates.items():
-            key = _valid_name(name, "predicate")
-            if key in _RESERVED or key in _CONNECTIVES:
-                raise ValueError(f"{key!r} is a PDDL keyword, not a goal predicate")
-            if key in table:
-                raise ValueError(f"predicate {key!r} is given twice")
-            table[key] = _positions(key, positions)
-        if not table:
-            raise ValueError("a vocabulary needs at least one goal predicate")
-        object.__setattr__(self, "predicates", MappingProxyType(dict(sorted(table.items()))))
-
-    def __hash__(self) -> int:
-        return hash(tuple(self.predicates.items()))
-
-    @classmethod
-    def of(cls, predicates: Mapping[str, Sequence[Iterable[str]]]) -> Vocabulary:
-        """Build from any iterables: ``Vocabulary.of({"on": (objects, regions)})``."""
-        return cls({k: tuple(frozenset(p) for p in v) for k, v in predicates.items()})
-
-    @property
-    def objects(self) -> frozenset[str]:
-        """Every object some argument position allows."""
-        return frozenset().union(*(s for allowed in self.predicates.values() for s in allowed))
-
-    def arity(self, predicate: str) -> int | None:
-        allowed = self.predicates.get(predicate)
-        return None if allowed is None else len(allowed)
-
-    def signature(self) -> str:
-        """``cooked/1, holding/1, on/2`` (for messages)."""
-        return ", ".join(f"{p}/{len(a)}" for p, a in self.predicates.items())
-
-    def describe(self) -> str:
-        """One line per predicate with its allowed objects (for prompts)."""
-        lines = []
-        for p, allowed in self.predicates.items():
-            slots = " ".join(f"?a{i}" for i in range(1, len(allowed) + 1))
-            where = "; ".join(
-                f"?a{i} in {{{', '.join(sorted(s))}}}" for i, s in enumerate(allowed, 1)
-            )
-            lines.append(
-                f"({p}{' ' + slots if slots else ''})" + (f" where {where}" if where else "")
-            )
-        return "\n".join(lines)
-
-
-def _valid_name(name: object, what: str) -> str:
-    if not isinstance(name, str):
-        raise TypeError(f"{what} names must be strings, got {name!r}")
-    key = name.lower()
-    if not _NAME.match(key):
-        raise ValueError(f"invalid {what} name {name!r}: use [a-z][a-z0-9_-]*")
-    return key
-
-
-def _positions(predicate: str, positions: object) -> tuple[frozenset[str], ...]:
-    if isinstance(positions, str | bytes) or not isinstance(positions, Iterable):
-        raise TypeError(f"{predicate!r}: give one collection of allowed objects per argument")
-    out = []
-    for i, allowed in enumerate(positions, 1):
-        if isinstance(allowed, str | bytes) or not isinstance(allowed, Iterable):
-            raise TypeError(f"{predicate!r} argument {i}: give a collection of object names")
-        names = frozenset(_valid_name(o, "object") for o in allowed)
-        if not names:
-            raise ValueError(f"{predicate!r} argument {i} allows no object")
-        out.append(names)
-    return tuple(out)
 
 
 class GoalStatus(enum.Enum):
@@ -506,7 +394,7 @@ def _head_problem(head: str, shown: str) -> str | None:
         return f"double negation is not allowed: {shown}; {only}"
     if head == "and":
         return f"nested (and ...) is not allowed: {shown}; give one flat (and ...)"
-    if head in _CONNECTIVES:
+    if head in CONNECTIVES:
         return f"'{head}' is not allowed in goals: {shown}; {only}"
     if head.startswith("?"):
         return f"variable '{_show(head)}' in predicate position: {shown}"

@@ -14,8 +14,8 @@ from collections.abc import Collection, Mapping
 from typing import Any
 
 from llmpas.language.logic import Atom, Not
-from llmpas.reasoning.goals import Literal, Vocabulary
-from llmpas.reasoning.program import Call
+from llmpas.reasoning.goals import Literal
+from llmpas.reasoning.tables import Call, Vocabulary
 
 
 def gbnf(

@@ -28,10 +28,11 @@ from importlib import resources
 from string import Template
 
 from llmpas.language.logic import Formula
-from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal, Vocabulary, parse_goals
+from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal, parse_goals
 from llmpas.reasoning.grammar import gbnf, json_schema, skill_gbnf
 from llmpas.reasoning.llm import LLM, Message, Request, Response
-from llmpas.reasoning.program import Call, parse_program
+from llmpas.reasoning.program import parse_program
+from llmpas.reasoning.tables import Call, Vocabulary
 
 METHODS = ("flp", "flp-refer", "one-step", "progprompt", "inner-monologue")
 DECODINGS = ("grammar", "schema", "none")

@@ -12,26 +12,12 @@ from __future__ import annotations
 import ast
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass
 
-from llmpas.reasoning.goals import GoalParse, GoalStatus, Vocabulary, parse_goals
+from llmpas.reasoning.goals import GoalParse, GoalStatus, parse_goals
+from llmpas.reasoning.tables import Call, Vocabulary
 
 MAX_PROGRAM = 8_000
 _FENCE = re.compile(r"```(?:python|py)?\s*\n(.*?)(?:```|$)", re.DOTALL)
-
-
-@dataclass(frozen=True)
-class Call:
-    """What an action call means as a goal: ``(predicate args...)``, possibly negated, with the
-    call's arguments at ``positions``."""
-
-    params: tuple[str, ...]
-    predicate: str
-    positions: tuple[int, ...]
-    negated: bool = False
-
-    def signature(self, name: str) -> str:
-        return f"def {name}({', '.join(self.params)}): ..."
 
 
 def program_text(text: str) -> str:

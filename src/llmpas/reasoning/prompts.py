@@ -7,45 +7,9 @@ predicate means, the actions as skill calls for ProgPrompt and Inner-Monologue, 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass, field
-from types import MappingProxyType
-
 from llmpas.language.logic import Formula
 from llmpas.reasoning.methods import Situation
-from llmpas.reasoning.program import Call
-
-
-@dataclass(frozen=True)
-class PromptTables:
-    """``actions``: name -> (what it does, predicates it makes true); ``predicates``: name ->
-    (parameters, meaning); ``calls``: the actions as functions; ``objects``: the scenario's
-    objects (for program-style prompts)."""
-
-    actions: Mapping[str, tuple[str, tuple[str, ...]]]
-    predicates: Mapping[str, tuple[str, str]]
-    calls: Mapping[str, Call] = field(default_factory=dict)
-    objects: tuple[str, ...] = ()
-
-    def __post_init__(self) -> None:
-        if not self.actions or not self.predicates:
-            raise ValueError("prompt tables need at least one action and one predicate")
-        for name, call in self.calls.items():
-            if call.predicate not in self.predicates:
-                raise ValueError(f"call {name!r} makes {call.predicate!r}, not a listed predicate")
-        object.__setattr__(self, "actions", MappingProxyType(dict(self.actions)))
-        object.__setattr__(self, "predicates", MappingProxyType(dict(self.predicates)))
-        object.__setattr__(self, "calls", MappingProxyType(dict(self.calls)))
-
-    def action_library(self) -> str:
-        lines = []
-        for name, (text, makes) in self.actions.items():
-            made = f" — makes true: {', '.join(makes)}" if makes else ""
-            lines.append(f"- {name}: {text}{made}")
-        return "\n".join(lines)
-
-    def predicate_list(self) -> str:
-        return "\n".join(f"- ({n} {args}): {text}" for n, (args, text) in self.predicates.items())
+from llmpas.reasoning.tables import PromptTables
 
 
 def situation(

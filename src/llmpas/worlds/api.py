@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 from llmpas.execution.anomaly import AnomalyReport
-from llmpas.execution.context import Belief, Context
+from llmpas.execution.context import Context
 from llmpas.execution.csubbt import SubtreeSpec
 from llmpas.execution.executor import ExecutorConfig
 from llmpas.language.domain import Domain
@@ -37,8 +37,7 @@ from llmpas.language.logic import Formula
 from llmpas.language.problem import Problem
 from llmpas.planning import PlannerConfig
 from llmpas.planning.result import Plan
-from llmpas.reasoning.goals import Vocabulary
-from llmpas.reasoning.prompts import PromptTables
+from llmpas.reasoning.tables import PromptTables, Vocabulary
 
 
 @dataclass(frozen=True)
@@ -164,9 +163,4 @@ class World(Protocol):
         ...
 
 
-def believed_lost(belief: Belief, obj: str, place: object | None) -> bool:
-    """An object is lost when the belief has no place for it and the robot does not hold it."""
-    return place is None and not belief.matching("atgrasp", obj)
-
-
-__all__ = ["RunOptions", "SearchModel", "Session", "World", "believed_lost"]
+__all__ = ["RunOptions", "SearchModel", "Session", "World"]

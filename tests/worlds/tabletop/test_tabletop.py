@@ -23,7 +23,8 @@ from llmpas.language.logic import Atom, Formula, Not
 from llmpas.language.problem import parse_formula
 from llmpas.planning import solve
 from llmpas.reasoning.llm import Message, Request
-from llmpas.reasoning.prompts import PromptTables, situation
+from llmpas.reasoning.prompts import situation
+from llmpas.reasoning.tables import PromptTables
 from llmpas.worlds.api import RunOptions, SearchModel, Session, World
 from llmpas.worlds.tabletop import WORLD
 

@@ -36,6 +36,7 @@ from llmpas.worlds.household.problem import (
 )
 from llmpas.worlds.household.state import PROPERTIES, VISIBLE
 from llmpas.worlds.household.values import ArmTarget, BaseConf, Grasp, Motion, Placement
+from llmpas.worlds.kitchen.belief import DETECTION
 from llmpas.worlds.kitchen.decomposition import OK, ExplorationConfig, KitchenBuilder
 
 BASE_ACTIONS = (
@@ -232,7 +233,7 @@ class Builder(KitchenBuilder):
             return None
 
         found = Constraint(
-            "Detected", detected, lambda v: Atom("on", (obj, region)), needs=("view_base", "view")
+            DETECTION, detected, lambda v: Atom("on", (obj, region)), needs=("view_base", "view")
         )
         dims = (
             self._view_bases(lambda v: self._holder_region(region)),

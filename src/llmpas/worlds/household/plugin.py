@@ -23,8 +23,7 @@ from llmpas.language.logic import Formula
 from llmpas.language.problem import Problem
 from llmpas.planning import PlannerConfig
 from llmpas.planning.result import Plan
-from llmpas.reasoning.goals import Vocabulary
-from llmpas.reasoning.prompts import PromptTables
+from llmpas.reasoning.tables import PromptTables, Vocabulary
 from llmpas.worlds.api import RunOptions
 from llmpas.worlds.household.decomposition import ExplorationConfig, build_specs
 from llmpas.worlds.household.layout import Layout

@@ -18,6 +18,7 @@ from llmpas.worlds.household.layout import Layout, ObjectSpec
 from llmpas.worlds.household.streams import DEFAULT_DEFERRED, make_streams
 from llmpas.worlds.household.values import BaseConf, Placement
 from llmpas.worlds.kitchen import load_domain
+from llmpas.worlds.kitchen.belief import pose_of, rests_at
 from llmpas.worlds.kitchen.problem import kitchen_problem, start_belief
 
 PROCESS_PREDICATE = {"clean": "Sink", "cook": "Stove", "heat": "Microwave", "cool": "Fridge"}
@@ -93,11 +94,11 @@ class Household:
 
 def believe_at(belief: Belief, obj: str, place: Placement | None) -> None:
     """Believe ``obj`` rests at ``place`` (None: its whereabouts are unknown)."""
-    belief.rests_at(obj, place)
+    rests_at(belief, obj, place)
 
 
 def believed_place(belief: Belief, obj: str) -> Placement | None:
-    return belief.pose_of(obj, Placement)
+    return pose_of(belief, obj, Placement)
 
 
 def initial_belief(

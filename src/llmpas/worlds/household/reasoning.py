@@ -9,9 +9,7 @@ from __future__ import annotations
 from types import MappingProxyType
 
 from llmpas.execution.context import Belief
-from llmpas.reasoning.goals import Vocabulary
-from llmpas.reasoning.program import Call
-from llmpas.reasoning.prompts import PromptTables
+from llmpas.reasoning.tables import Call, PromptTables, Vocabulary
 from llmpas.worlds.household.problem import Household, believed_place
 from llmpas.worlds.kitchen.reasoning import CALLS, whereabouts
 

@@ -13,14 +13,23 @@ from dataclasses import dataclass
 
 from llmpas.execution.context import Belief, Context
 from llmpas.execution.csubbt import Constraint, SubAction, Values
-from llmpas.execution.plan_builder import PlanBuilder, Recipe
+from llmpas.execution.plan_builder import BaseMoves, PlanBuilder, Recipe
 from llmpas.execution.space import Dimension
 from llmpas.execution.world import SkillResult
 from llmpas.language.logic import Atom
 from llmpas.planning.result import PlanStep
+from llmpas.worlds.kitchen.belief import DETECTION, rests_at
 from llmpas.worlds.kitchen.values import BaseConf, Grasp
 
 OK = SkillResult.success()
+BASE = BaseMoves(
+    action="move_base",
+    fluent="atbconf",
+    streams=("inverse-kinematics", "sample-view"),
+    dims=("base", "view_base"),
+    kind="bconf",
+)
+ADOPTED = frozenset({"pose", "supported", "grasp"})  # stream facts the belief keeps
 
 
 @dataclass(frozen=True)
@@ -42,6 +51,9 @@ class KitchenBuilder(PlanBuilder):
 
     exploration: ExplorationConfig
     fit_grasp_budget = False  # cap the grasp budget at the number of grasp kinds offered
+    base = BASE
+    adopted = ADOPTED
+    detection = DETECTION
 
     # ------------------------------------------------------------ what a world supplies
     def pick(self, step: PlanStep) -> Recipe:
@@ -81,7 +93,7 @@ class KitchenBuilder(PlanBuilder):
         return self.exploration.max_samples
 
     def forget_object(self, belief: Belief, obj: str) -> None:
-        belief.rests_at(obj, None)
+        rests_at(belief, obj, None)
 
     def recipe(self, step: PlanStep) -> Recipe:
         """The recipe of a kitchen-domain action."""

@@ -12,6 +12,7 @@ from llmpas.language.domain import Domain
 from llmpas.language.logic import Atom, Formula
 from llmpas.language.problem import Problem
 from llmpas.worlds.kitchen import load_domain, load_streams
+from llmpas.worlds.kitchen.belief import rests_at
 from llmpas.worlds.kitchen.values import BaseConf
 
 
@@ -20,7 +21,7 @@ def start_belief(static: set[Atom], poses: Mapping[str, Any], base: BaseConf) ->
     ``q0``), the hand empty and the base free to move."""
     belief = Belief(static, {})
     for obj, pose in poses.items():
-        belief.rests_at(obj, pose)
+        rests_at(belief, obj, pose)
     q = belief.name("q0", base)
     belief.facts |= {
         Atom("bconf", (q,)),

@@ -6,7 +6,7 @@ from __future__ import annotations
 from typing import Any
 
 from llmpas.execution.context import Belief
-from llmpas.reasoning.program import Call
+from llmpas.reasoning.tables import Call
 
 CALLS = {
     "pick": Call(("obj",), "holding", (0,)),

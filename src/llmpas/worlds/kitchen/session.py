@@ -10,7 +10,7 @@ from typing import Protocol
 from llmpas.execution.anomaly import AnomalyReport
 from llmpas.execution.context import Belief, Context
 from llmpas.planning import PlannerConfig
-from llmpas.worlds.api import believed_lost
+from llmpas.worlds.kitchen.belief import DETECTION, believed_lost, pose_of
 
 PLANNER = PlannerConfig(max_time=60.0)
 
@@ -29,7 +29,7 @@ class KitchenSearch:
     looked: Callable[[AnomalyReport], tuple[str, ...]]
     predicate: str = "scanned"
     location: str = "on"
-    detection: str = "Detected"
+    detection: str = DETECTION
 
     def __post_init__(self) -> None:
         if not self.where:
@@ -42,7 +42,7 @@ class KitchenSearch:
         return self.looked(report)
 
     def lost(self, obj: str) -> bool:
-        place = self.belief.pose_of(obj, self.pose_type)
+        place = pose_of(self.belief, obj, self.pose_type)
         return obj in self.known and believed_lost(self.belief, obj, place)
 
 

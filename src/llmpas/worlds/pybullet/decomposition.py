@@ -22,6 +22,7 @@ from llmpas.language.logic import Atom
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics
 from llmpas.planning.result import Plan, PlanStep
+from llmpas.worlds.kitchen.belief import DETECTION
 from llmpas.worlds.kitchen.decomposition import OK, KitchenBuilder
 from llmpas.worlds.kitchen.decomposition import ExplorationConfig as KitchenExploration
 from llmpas.worlds.pybullet.problem import believe_at, believed_pose
@@ -191,7 +192,7 @@ class Builder(KitchenBuilder):
             return SkillResult.success("not seen by the wrist camera; keeping the pose")
 
         found = Constraint(
-            "Detected",
+            DETECTION,
             detected,
             lambda v: Atom("on", (obj, region)),
             needs=("view_base", "camera"),

@@ -22,8 +22,7 @@ from llmpas.language.domain import Domain
 from llmpas.language.logic import Atom, Formula
 from llmpas.language.problem import Problem
 from llmpas.planning.result import Plan
-from llmpas.reasoning.goals import Vocabulary
-from llmpas.reasoning.prompts import PromptTables
+from llmpas.reasoning.tables import PromptTables, Vocabulary
 from llmpas.worlds.api import RunOptions
 from llmpas.worlds.kitchen import load_domain
 from llmpas.worlds.kitchen.session import PLANNER, KitchenSearch, KitchenSession

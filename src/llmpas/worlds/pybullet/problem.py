@@ -13,6 +13,7 @@ import numpy as np
 from llmpas.execution.context import Belief
 from llmpas.language.logic import Atom, Formula
 from llmpas.language.problem import Problem
+from llmpas.worlds.kitchen.belief import pose_of, rests_at
 from llmpas.worlds.kitchen.problem import kitchen_problem, start_belief
 from llmpas.worlds.pybullet.scene import SceneConfig
 from llmpas.worlds.pybullet.streams import DEFAULT_DEFERRED, Geometry, make_streams
@@ -38,11 +39,11 @@ def static_facts(config: SceneConfig) -> set[Atom]:
 
 def believe_at(belief: Belief, obj: str, pose: ObjectPose | None) -> None:
     """Believe ``obj`` rests at ``pose`` (None: its whereabouts are unknown)."""
-    belief.rests_at(obj, pose)
+    rests_at(belief, obj, pose)
 
 
 def believed_pose(belief: Belief, obj: str) -> ObjectPose | None:
-    return belief.pose_of(obj, ObjectPose)
+    return pose_of(belief, obj, ObjectPose)
 
 
 def believed_base(belief: Belief) -> BaseConf | None:

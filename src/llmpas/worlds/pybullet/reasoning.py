@@ -7,8 +7,7 @@ from __future__ import annotations
 from types import MappingProxyType
 
 from llmpas.execution.context import Belief
-from llmpas.reasoning.goals import Vocabulary
-from llmpas.reasoning.prompts import PromptTables
+from llmpas.reasoning.tables import PromptTables, Vocabulary
 from llmpas.worlds.kitchen.reasoning import CALLS, whereabouts
 from llmpas.worlds.pybullet.problem import believed_pose
 from llmpas.worlds.pybullet.scene import SceneConfig

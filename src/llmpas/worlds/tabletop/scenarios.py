@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from llmpas.reasoning.prompts import PromptTables
+from llmpas.reasoning.tables import PromptTables
 from llmpas.worlds.pybullet.reasoning import PROGRAM_CALLS, vocabulary
 from llmpas.worlds.pybullet.scene import ObjectConfig, Rect, SceneConfig, TableConfig
 

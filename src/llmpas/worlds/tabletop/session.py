@@ -25,8 +25,7 @@ from llmpas.language.logic import Atom, Formula
 from llmpas.language.problem import Problem
 from llmpas.planning import PlannerConfig
 from llmpas.planning.result import Plan
-from llmpas.reasoning.goals import Vocabulary
-from llmpas.reasoning.prompts import PromptTables
+from llmpas.reasoning.tables import PromptTables, Vocabulary
 from llmpas.worlds.api import RunOptions
 from llmpas.worlds.kitchen import load_domain
 from llmpas.worlds.kitchen.reasoning import whereabouts
