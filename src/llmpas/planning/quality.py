@@ -16,8 +16,10 @@ cheaper ones while time and patience remain (see :class:`~llmpas.planning.config
   order of LAMA's iterated search (weighted A* with FF, w = 5, 3, 2, 1), ending with A* on
   h^max; each cheaper plan is realised (its streams evaluated) and replayed before it replaces
   the incumbent.
-- ``optimal``: A* on h^max (admissible) in every search. Optimal for the samples drawn so far,
-  not over the continuous space: a stream planner cannot know values it has not sampled.
+- ``optimal``: A* on h^max (admissible) in every search; once a plan is realised, A* bounded by
+  its cost searches the task again with the real values (the optimistic costs that chose the
+  plan were lower bounds), until it finds no cheaper plan. Optimal for the samples drawn, not
+  over the continuous space: a stream planner cannot know values it has not sampled.
 
 Both registries are plain mappings: add an entry to add a configuration.
 """
@@ -112,12 +114,15 @@ class Quality:
     """A quality mode: the search for the first plan, then the searches for cheaper ones.
 
     ``improve`` is empty when the first plan is returned; otherwise the k-th improvement is
-    looked for with ``improve[k]`` (the last one repeats), bounded by the incumbent's cost."""
+    looked for with ``improve[k]`` (the last one repeats), bounded by the incumbent's cost.
+    ``keep_sampling``: when a bounded search finds no cheaper plan, widen the task (new samples,
+    as after any failed search) and go on; otherwise the incumbent is returned then."""
 
     name: str
     first: str
     improve: tuple[str, ...]
     description: str
+    keep_sampling: bool = False
 
     def __post_init__(self) -> None:
         unknown = [s for s in (self.first, *self.improve) if s not in SEARCHES]
@@ -146,8 +151,15 @@ QUALITIES: Mapping[str, Quality] = MappingProxyType(
                 "lazy-greedy-ff",
                 ("wastar5-ff", "wastar3-ff", "wastar2-ff", "wastar1-ff", "astar-hmax"),
                 "the first plan fast, then cheaper ones while time and patience remain",
+                keep_sampling=True,
             ),
-            Quality("optimal", "astar-hmax", (), "admissible search (A* on h^max) every time"),
+            Quality(
+                "optimal",
+                "astar-hmax",
+                ("astar-hmax",),
+                "admissible search (A* on h^max), repeated on the real values until no cheaper "
+                "plan is found",
+            ),
         )
     }
 )

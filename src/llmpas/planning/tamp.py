@@ -320,6 +320,8 @@ def _focused(run: _Run) -> PlanResult:
         if isinstance(found, PlanResult):
             return found
         if found is None:  # no plan (no cheaper plan) even with every enabled instance assumed
+            if run.incumbent is not None and not run.quality.keep_sampling:
+                return run.result(PlanStatus.UNSOLVABLE, _unsolvable_message(run))
             if _widen(run, closure):
                 continue
             return run.result(PlanStatus.UNSOLVABLE, _unsolvable_message(run))
@@ -614,6 +616,8 @@ def _incremental(run: _Run) -> PlanResult:
             if done is not None:
                 return done
             continue  # anytime: search this level again for a cheaper plan
+        if run.incumbent is not None and not run.quality.keep_sampling:
+            return run.result(PlanStatus.UNSOLVABLE, _unsolvable_message(run))
         level += 1
         if not _one_level(run):
             return run.result(PlanStatus.UNSOLVABLE, _unsolvable_message(run))
