@@ -261,8 +261,8 @@ def markdown_table(rows: Iterable[Row], config: BenchConfig, jobs: int | None = 
     jobs = config.jobs if jobs is None else jobs
     lines = [
         f"Initial planning time (median of solved trials, seconds; {config.trials} trials per "
-        f"size, limit {config.max_time:g} s per trial; {_jobs_note(jobs)}; quality "
-        f"{config.quality}). Cost: median plan cost of the solved trials (deferred: with the "
+        f"size, limit {config.max_time:g} s per trial; quality {config.quality}; "
+        f"{_jobs_note(jobs)}). Cost: median plan cost of the solved trials (deferred: with the "
         "optimistic values of deferred cost functions).",
         "",
         "| example | size | deferred (s) | cost | solved | computed (s) | cost | solved "
