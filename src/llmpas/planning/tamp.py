@@ -341,7 +341,8 @@ def _focused(run: _Run) -> PlanResult:
 def _time_limit(run: _Run, where: str = "") -> PlanResult:
     return run.result(
         PlanStatus.TIMEOUT,
-        f"time limit reached: no plan within max_time={run.config.max_time:g} s" + where,
+        f"time limit reached: {'' if run.incumbent else 'no plan within '}"
+        f"max_time={run.config.max_time:g} s" + where,
     )
 
 
