@@ -37,6 +37,19 @@ def test_plan_json_is_machine_readable(capsys: pytest.CaptureFixture[str]) -> No
     assert all(step["deferred"] == [] for step in data["plan"]["steps"])
 
 
+def test_plan_quality_and_cost_in_the_output(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["plan", "--example", "tamp2d", "--size", "2", "--quality", "anytime"]) == 0
+    out = capsys.readouterr().out
+    assert "quality anytime" in out and "plan cost" in out
+    assert (
+        main(["plan", "--example", "tamp2d", "--size", "2", "--json", "--quality", "optimal"]) == 0
+    )
+    data = json.loads(capsys.readouterr().out)
+    assert data["stats"]["quality"] == "optimal"
+    assert data["improvements"][-1]["cost"] == data["plan"]["cost"] > 0
+    assert main(["plan", "--example", "tamp2d", "--quality", "best"]) == 2  # a one-line error
+
+
 def _error_line(capsys: pytest.CaptureFixture[str]) -> str:
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0, err

@@ -37,6 +37,7 @@ from llmpas.language.problem import Problem, read_problem
 from llmpas.limits import time_limit
 from llmpas.options import bounded_int, positive_float, positive_int, seed
 from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, solve
+from llmpas.planning.quality import DEFAULT_QUALITY, QUALITIES
 from llmpas.safetext import RedactingFilter, env_secrets, printable, redact
 
 Handler = Callable[[argparse.Namespace, Console], int]
@@ -69,6 +70,13 @@ def _add_planner_options(p: argparse.ArgumentParser) -> None:
         "--max-time", type=positive_float, default=60.0, help="seconds for the whole plan"
     )
     p.add_argument("--seed", type=seed, default=0)
+    p.add_argument(
+        "--quality",
+        choices=tuple(QUALITIES),
+        default=DEFAULT_QUALITY,
+        help="plan quality: fast (first plan, cost-blind search), anytime (then cheaper plans "
+        "while time and patience remain), optimal (A* on h^max: cheapest for the samples drawn)",
+    )
 
 
 def _planner_config(args: argparse.Namespace) -> PlannerConfig:
@@ -81,6 +89,7 @@ def _planner_config(args: argparse.Namespace) -> PlannerConfig:
             max_time=args.max_time,
             search_time=args.max_time,
             seed=args.seed,
+            quality=getattr(args, "quality", DEFAULT_QUALITY),
         )
     except ValueError as e:
         raise CliError(str(e)) from None
@@ -119,7 +128,7 @@ def _cmd_plan(args: argparse.Namespace, console: Console) -> int:
         f"planning did not end within {limit:g} s (--max-time {config.max_time:g}): "
         f"{culprit} did not return"
     )
-    status = f"planning ({config.algorithm}, defer={config.defer})..."
+    status = f"planning ({config.algorithm}, {config.quality}, defer={config.defer})..."
     with console.status(status), time_limit(limit, late):
         result = solve(problem, config)
     if args.json:
@@ -141,7 +150,9 @@ def _print_result(
         console.print(f"[bold red]{result.status.value}[/]: {result.message}")
     else:
         console.print(
-            f"[bold green]solved[/]: {len(result.plan)} actions, cost {result.plan.cost:g}"
+            f"[bold green]solved[/]: {len(result.plan)} actions, cost {result.plan.cost:g}, "
+            f"{s.total_time:.2f} s" + (f" ({result.message})" if result.message else ""),
+            highlight=False,
         )
         for i, step in enumerate(result.plan.steps, 1):
             deferred = (
@@ -152,7 +163,13 @@ def _print_result(
             text = " ".join([step.action, *(written.get(a, a) for a in step.args)])
             console.print(f"  {i:3d}. ({text}){deferred}", highlight=False)
     table = Table(title="statistics", show_header=False)
-    table.add_row("algorithm", s.algorithm)
+    table.add_row("algorithm", f"{s.algorithm}, quality {s.quality}")
+    table.add_row("plan cost", "—" if result.plan is None else f"{result.plan.cost:g}")
+    if len(result.improvements) > 1:
+        table.add_row(
+            "cheaper plans (cost @ s)",
+            ", ".join(f"{i.cost:g} @ {i.time:.2f}" for i in result.improvements),
+        )
     table.add_row("iterations", str(s.iterations))
     table.add_row(
         "stream calls", ", ".join(f"{k}={v}" for k, v in sorted(s.stream_calls.items())) or "0"
@@ -210,6 +227,7 @@ def _cmd_bench_planning_time(args: argparse.Namespace, console: Console) -> int:
             max_time=args.max_time,
             sizes=tuple(args.sizes) if args.sizes else None,
             out_dir=Path(args.out),
+            quality=args.quality,
             jobs=args.jobs,
             executor=executor_from_args(args),
         )
@@ -256,6 +274,9 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
         "--max-time", type=positive_float, default=60.0, help="seconds per planning run"
     )
     pt.add_argument("--out", default="results/planning-time")
+    pt.add_argument(
+        "--quality", choices=tuple(QUALITIES), default=DEFAULT_QUALITY, help="plan quality"
+    )
     pt.add_argument(
         "--jobs",
         type=positive_int,

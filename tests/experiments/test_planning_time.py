@@ -66,8 +66,11 @@ def test_bench_writes_csv_table_and_plot(tmp_path: Path) -> None:
     for (mode, size, trial), n in calls.items():
         if mode == "deferred":
             assert n < calls[("computed", size, trial)], (size, trial)
+    assert all(float(r["cost"]) > 0 for r in rows)  # every trial solved: a plan cost
     table = (tmp_path / "planning_time.md").read_text()
     assert "| mobile | 1 |" in table and "| mobile | 2 |" in table
+    assert "| deferred (s) | cost | solved | computed (s) | cost | solved |" in table
+    assert all(r.cost["computed"] is not None for r in report.rows)
     assert "1 job: trials one at a time" in table
     png = (tmp_path / "planning_time.png").read_bytes()
     assert png.startswith(b"\x89PNG")
@@ -174,7 +177,7 @@ def test_markdown_marks_unsolved_sizes() -> None:
 
     row = Row("mobile", 8, {"deferred": 2.0, "computed": None}, {"deferred": 5, "computed": 0}, 5)
     text = markdown_table([row], BenchConfig(examples=("mobile",)))
-    assert "| mobile | 8 | 2.00 | 5/5 | — | 0/5 | — |" in text
+    assert "| mobile | 8 | 2.00 | — | 5/5 | — | — | 0/5 | — |" in text
     assert "; 1 job: trials one at a time)" in text.splitlines()[0]
     parallel = markdown_table([row], BenchConfig(examples=("mobile",), jobs=3))
     assert "; 3 parallel jobs: timings contended)" in parallel.splitlines()[0]

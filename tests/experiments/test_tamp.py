@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 import statistics
 from pathlib import Path
 from typing import Any
@@ -55,7 +56,7 @@ def test_a_mode_that_solves_nothing_is_not_run_at_larger_sizes(
     assert ("mirror", "deferred", 3) in ran and ("packed", "computed", 3) in ran
     assert ("mirror", "computed", 1) in ran and ("mirror", "computed", 2) not in ran
     table = (tmp_path / "tamp.md").read_text()
-    assert "| mirror | 2 | not run | — | 0.20 | 2/2 |" in table
+    assert "| mirror | 2 | not run | — | — | 0.20 | — | 2/2 |" in table
     assert REFERENCE_LABEL in table
     assert tamp.cpu_share(report.trials) == pytest.approx(
         statistics.median(t.cpu / t.wall for t in report.trials if t.solved)
@@ -67,6 +68,52 @@ def test_a_mode_that_solves_nothing_is_not_run_at_larger_sizes(
     # with --keep-going every size runs
     keep = TampBenchConfig(sizes=(1, 2), trials=1, out_dir=tmp_path / "k", keep_going=True)
     assert len(run_tamp(keep, quiet()).trials) == 2 * 2 * 2
+
+
+def test_cost_columns_per_quality_and_the_anytime_plot(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def run(p: Payload) -> dict[str, Any]:
+        base = 100.0 * p.size + p.trial  # fast's cost; optimal 10 % cheaper; anytime improves
+        final = {"fast": base, "optimal": 0.9 * base, "anytime": 0.8 * base}[p.quality]
+        steps = [[0.1, base], [0.5, final]] if p.quality == "anytime" else [[0.2, final]]
+        return {
+            **tamp._failed(p, "solved", "ok"),
+            "valid": True,
+            "cpu": 1.0 + p.size,
+            "wall": 1.0 + p.size,
+            "cost": final,
+            "improvements": json.dumps(steps),
+        }
+
+    monkeypatch.setattr(tamp, "run_job", run)
+    config = TampBenchConfig(
+        sizes=(1, 2),
+        trials=3,
+        out_dir=tmp_path,
+        modes=("computed",),
+        qualities=("fast", "anytime", "optimal"),
+    )
+    assert config.columns == ("computed", "computed+anytime", "computed+optimal")
+    report = run_tamp(config, quiet())
+    rows = {(r.family, r.size): r for r in report.rows}
+    assert rows["packed", 2].cost == {
+        "computed": 201.0,
+        "computed+anytime": pytest.approx(160.8),
+        "computed+optimal": pytest.approx(180.9),
+    }
+    table = (tmp_path / "tamp.md").read_text()
+    assert "computed+anytime CPU (s) | cost | solved" in table
+    assert "| packed | 2 | 3.00 | 201.0 | 3/3 | 3.00 | 160.8 | 3/3 | 3.00 | 180.9 | 3/3 |" in table
+    assert (tmp_path / "tamp-anytime.png").read_bytes()[:4] == b"\x89PNG"
+    anytime = [t for t in report.trials if t.quality == "anytime"]
+    assert all(t.timeline() == [(0.1, 100.0 * t.size + t.trial), (0.5, t.cost)] for t in anytime)
+    with (tmp_path / "tamp.csv").open() as f:
+        assert {r["quality"] for r in csv.DictReader(f)} == {"fast", "anytime", "optimal"}
+    with pytest.raises(ValueError, match="unknown mode or quality"):
+        TampBenchConfig(qualities=("best",))
+    with pytest.raises(ValueError, match=r"no domain\.pddl"):
+        TampBenchConfig(files=tmp_path)
 
 
 def test_an_invalid_plan_is_not_counted_as_solved(
@@ -93,6 +140,7 @@ def test_a_tiny_real_run_writes_table_plot_and_cache(tmp_path: Path) -> None:
     for t in trials:
         assert t["status"] == "solved" and t["valid"] == "True", t
         assert float(t["cpu"]) > 0 and int(t["plan_length"]) >= 5
+        assert float(t["cost"]) > 0 and json.loads(t["improvements"])[-1][1] > 0
     assert (out / "tamp.png").read_bytes()[:4] == b"\x89PNG"
     assert "| mirror | 1 |" in (out / "tamp.md").read_text()
     cached = sorted((out / "cache").glob("*.json"))

@@ -4,6 +4,8 @@
 to the executor. *Computed* (nothing deferred; called "eager" before, a spelling still accepted
 with a warning): every stream is evaluated while planning. Both use the same algorithm,
 the same problems (one seed per trial) and the same limits, in one run, so their ratio is fair.
+Beside the time, the table gives the median plan cost as the planner reports it (for deferred
+plans it counts the optimistic values of deferred cost functions, so it is a lower bound there).
 
 Each trial is a cached job (:mod:`llmpas.experiments.jobs`): an interrupted run resumes and a
 changed setting never reuses a stale result. ``jobs > 1`` runs trials in parallel processes, which
@@ -42,6 +44,7 @@ class BenchConfig:
     sizes: tuple[int, ...] | None = None  # None: each example's own sizes
     out_dir: Path = Path("results/planning-time")
     algorithm: str = "focused"
+    quality: str = "fast"  # PlannerConfig.quality
     jobs: int = 1  # parallel processes (> 1: contended timings)
     # where the trials run (local: ``jobs`` processes)
     executor: ExecutorSpec = field(default_factory=ExecutorSpec)
@@ -72,6 +75,7 @@ class Trial:
     search_time: float
     stream_calls: int
     plan_length: int
+    cost: float | None = None  # the plan's cost (None: no plan)
 
     @property
     def solved(self) -> bool:
@@ -87,6 +91,7 @@ class Row:
     median: dict[str, float | None]  # mode -> median time of solved trials (None: none solved)
     solved: dict[str, int]
     trials: int
+    cost: dict[str, float | None] = field(default_factory=dict)  # mode -> median plan cost
 
     @property
     def ratio(self) -> float | None:
@@ -130,6 +135,7 @@ def planner_config(mode: str, trial: int, config: BenchConfig) -> PlannerConfig:
         max_time=config.max_time,
         search_time=config.max_time,
         seed=trial,
+        quality=config.quality,  # type: ignore[arg-type]
     )
 
 
@@ -149,6 +155,7 @@ def run_trial(example: str, size: int, mode: str, trial: int, config: BenchConfi
         s.search_time,
         sum(s.stream_calls.values()),
         len(result.plan) if result.plan is not None else 0,
+        result.plan.cost if result.plan is not None else None,
     )
 
 
@@ -158,13 +165,16 @@ def summarise(trials: Sequence[Trial]) -> tuple[Row, ...]:
     for example, size in keys:
         median: dict[str, float | None] = {}
         solved: dict[str, int] = {}
+        cost: dict[str, float | None] = {}
         for mode in MODES:
             ts = [t for t in trials if (t.example, t.size, t.mode) == (example, size, mode)]
             times = [t.total_time for t in ts if t.solved]
             median[mode] = statistics.median(times) if times else None
             solved[mode] = len(times)
+            costs = [t.cost for t in ts if t.solved and t.cost is not None]
+            cost[mode] = statistics.median(costs) if costs else None
         n = max(1, len([t for t in trials if (t.example, t.size) == (example, size)]) // 2)
-        rows.append(Row(example, size, median, solved, n))
+        rows.append(Row(example, size, median, solved, n, cost))
     return tuple(rows)
 
 
@@ -251,16 +261,21 @@ def markdown_table(rows: Iterable[Row], config: BenchConfig, jobs: int | None = 
     jobs = config.jobs if jobs is None else jobs
     lines = [
         f"Initial planning time (median of solved trials, seconds; {config.trials} trials per "
-        f"size, limit {config.max_time:g} s per trial; {_jobs_note(jobs)})",
+        f"size, limit {config.max_time:g} s per trial; quality {config.quality}; "
+        f"{_jobs_note(jobs)}). Cost: median plan cost of the solved trials (deferred: with the "
+        "optimistic values of deferred cost functions).",
         "",
-        "| example | size | deferred (s) | solved | computed (s) | solved | computed / deferred |",
-        "|---|---:|---:|---:|---:|---:|---:|",
+        "| example | size | deferred (s) | cost | solved | computed (s) | cost | solved "
+        "| computed / deferred |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for r in rows:
         ratio = "—" if r.ratio is None else f"{r.ratio:.1f}x"
         lines.append(
             f"| {r.example} | {r.size} | {_fmt(r.median['deferred'])} | "
+            f"{_fmt(r.cost.get('deferred'))} | "
             f"{r.solved['deferred']}/{r.trials} | {_fmt(r.median['computed'])} | "
+            f"{_fmt(r.cost.get('computed'))} | "
             f"{r.solved['computed']}/{r.trials} | {ratio} |"
         )
     return "\n".join(lines) + "\n"

@@ -13,12 +13,23 @@ A solved trial counts as solved only when its plan validates (:mod:`~llmpas.exam
 tamp2d_pds.validate`). Trials are cached jobs (:mod:`llmpas.experiments.jobs`): an interrupted
 run resumes. Sizes run in increasing order; a (family, mode) that solves no trial at one size is
 not run at larger sizes (``--keep-going`` runs them anyway).
+
+*Plan quality*: each mode runs with every quality of ``--qualities`` (``fast``, ``anytime``,
+``optimal``; :mod:`llmpas.planning.quality`); a column is named by its mode, followed by
+``+QUALITY`` unless the quality is ``fast``. Every solved trial's **cost** is the validator's:
+the plan replayed on the real values (deferred streams evaluated). With ``anytime``, each
+trial's cheaper plans (CPU s, cost) are kept, and ``tamp-anytime.png`` plots cost over CPU time
+for one N.
+
+``--pddlstream-files DIR`` plans PDDLStream's own ``continuous_tamp`` domain and stream files
+(read from DIR, not shipped) with the streams and families of :mod:`.pds_files` instead.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import json
 import logging
 import multiprocessing
 import os
@@ -37,6 +48,7 @@ from rich.console import Console
 
 from llmpas.examples.tamp2d_pds import FAMILIES, make_problem
 from llmpas.examples.tamp2d_pds.validate import validate
+from llmpas.experiments import pds_files
 from llmpas.experiments.jobs import (
     ExecutorSpec,
     Job,
@@ -47,6 +59,7 @@ from llmpas.experiments.jobs import (
 )
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning import PlannerConfig, solve
+from llmpas.planning.quality import QUALITIES
 
 log = logging.getLogger(__name__)
 
@@ -73,8 +86,26 @@ class TampBenchConfig:
     share: bool = False  # PlannerConfig.share_placeholders
     out_dir: Path = Path("results/tamp")
     executor: ExecutorSpec = field(default_factory=ExecutorSpec)
+    modes: tuple[str, ...] = MODES
+    qualities: tuple[str, ...] = ("fast",)
+    files: Path | None = None  # PDDLStream's continuous_tamp folder (see pds_files)
+    anytime_size: int | None = None  # N of the anytime plot (None: the largest solved)
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        return tuple(label(m, q) for m in self.modes for q in self.qualities)
 
     def __post_init__(self) -> None:
+        bad = [m for m in self.modes if m not in MODES] + [
+            q for q in self.qualities if q not in QUALITIES
+        ]
+        if bad or not self.modes or not self.qualities:
+            raise ValueError(
+                f"unknown mode or quality {bad[:1]}; modes: {', '.join(MODES)}; "
+                f"qualities: {', '.join(QUALITIES)}"
+            )
+        if self.files is not None:
+            pds_files.check_files(self.files)
         unknown = [f for f in self.families if f not in FAMILIES]
         if unknown or not self.families:
             raise ValueError(f"unknown family {unknown[:1]}; families are {', '.join(FAMILIES)}")
@@ -86,6 +117,11 @@ class TampBenchConfig:
             raise ValueError(f"max_time must be in (0, 3600] seconds, got {self.max_time}")
         if self.memory_mb < 512:
             raise ValueError(f"memory_mb must be >= 512, got {self.memory_mb}")
+
+
+def label(mode: str, quality: str) -> str:
+    """A table column: the mode, followed by ``+QUALITY`` unless the quality is ``fast``."""
+    return mode if quality == "fast" else f"{mode}+{quality}"
 
 
 @dataclass(frozen=True)
@@ -107,10 +143,21 @@ class Trial:
     validation: str  # "ok", or why the plan (or the run) failed
     check_cpu: float = 0.0  # CPU seconds of the validation (deferred streams evaluated there)
     jobs: int = 1  # trials running in parallel while this one was timed
+    quality: str = "fast"
+    cost: float | None = None  # the validator's cost of the plan (real values)
+    improvements: str = ""  # JSON [[cpu s, planner's cost], ...]: each cheaper plan found
 
     @property
     def solved(self) -> bool:
         return self.status == "solved" and self.valid
+
+    @property
+    def column(self) -> str:
+        return label(self.mode, self.quality)
+
+    def timeline(self) -> list[tuple[float, float]]:
+        """(CPU s, cost) of each cheaper plan found (the planner's costs)."""
+        return [(float(c), float(v)) for c, v in json.loads(self.improvements or "[]")]
 
 
 @dataclass(frozen=True)
@@ -123,15 +170,20 @@ class Payload:
     memory_mb: int
     jobs: int
     share: bool = False
+    quality: str = "fast"
+    files: str | None = None
 
 
-def planner_config(mode: str, trial: int, max_time: float, share: bool = False) -> PlannerConfig:
+def planner_config(
+    mode: str, trial: int, max_time: float, share: bool = False, quality: str = "fast"
+) -> PlannerConfig:
     return PlannerConfig(
         defer=(mode == "deferred"),
         max_time=max_time,
         search_time=max_time,
         seed=trial,
         share_placeholders=share,
+        quality=quality,  # type: ignore[arg-type]
     )
 
 
@@ -143,13 +195,22 @@ def _cpu() -> float:
 
 def measure(p: Payload) -> dict[str, Any]:
     """Plan one trial in this process and validate its plan: the fields of a :class:`Trial`."""
-    world, problem = make_problem(p.family, p.size, p.trial)
+    if p.files is None:
+        world, problem = make_problem(p.family, p.size, p.trial)
+    else:
+        instance, problem = pds_files.make_problem(Path(p.files), p.family, p.size, p.trial)
     cpu0, wall0 = _cpu(), time.perf_counter()
-    result = solve(problem, planner_config(p.mode, p.trial, p.max_time, p.share))
+    result = solve(problem, planner_config(p.mode, p.trial, p.max_time, p.share, p.quality))
     cpu, wall = _cpu() - cpu0, time.perf_counter() - wall0
     plan = result.plan
     cpu1 = _cpu()
-    check = validate(world, problem, plan) if plan is not None else None
+    check: Any = None
+    if plan is not None:
+        check = (
+            validate(world, problem, plan)
+            if p.files is None
+            else pds_files.validate(instance, problem, plan)
+        )
     check_cpu = _cpu() - cpu1
     s = result.stats
     return {
@@ -166,6 +227,8 @@ def measure(p: Payload) -> dict[str, Any]:
         "plan_length": len(plan) if plan is not None else 0,
         "validation": check.message if check else result.message[:300],
         "check_cpu": check_cpu,
+        "cost": check.cost if check else None,
+        "improvements": json.dumps([[i.cpu, i.cost] for i in result.improvements]),
     }
 
 
@@ -235,7 +298,8 @@ def run_job(p: Payload) -> dict[str, Any]:
 
 @dataclass(frozen=True)
 class Row:
-    """One family at one size: per mode the median CPU of solved trials and how many solved."""
+    """One family at one size: per column (mode and quality) the median CPU and cost of the
+    solved trials and how many solved."""
 
     family: str
     size: int
@@ -245,10 +309,11 @@ class Row:
     solved: dict[str, int]
     invalid: dict[str, int]  # plans returned that did not validate
     run: dict[str, bool]  # False: skipped (a smaller size solved nothing)
+    cost: dict[str, float | None] = field(default_factory=dict)
 
     @property
     def speedup(self) -> float | None:
-        c, d = self.cpu["computed"], self.cpu["deferred"]
+        c, d = self.cpu.get("computed"), self.cpu.get("deferred")
         return None if c is None or d is None or d <= 0 else c / d
 
 
@@ -263,7 +328,12 @@ def code_fingerprint() -> str:
     """A hash of the code a trial's result depends on: the domain package (PDDL files and
     streams) and the planner; a changed file never reuses a cached result."""
     texts = []
-    for package in ("llmpas.examples.tamp2d_pds", "llmpas.planning", "llmpas.language"):
+    for package in (
+        "llmpas.examples.tamp2d_pds",
+        "llmpas.planning",
+        "llmpas.language",
+        "llmpas.experiments",
+    ):
         root = files(package)
         texts += [
             (package, f.name, f.read_text(encoding="utf-8"))
@@ -273,14 +343,20 @@ def code_fingerprint() -> str:
     return fingerprint(texts)
 
 
-def jobs_for(config: TampBenchConfig, size: int, combos: Iterable[tuple[str, str]]) -> list[Job]:
+def jobs_for(
+    config: TampBenchConfig, size: int, combos: Iterable[tuple[str, str, str]]
+) -> list[Job]:
     out = []
     code = code_fingerprint()
-    for family, mode in combos:
+    files = None if config.files is None else str(config.files.resolve())
+    source: list[Any] = [] if files is None else [files, _files_text(config.files)]
+    for family, mode, quality in combos:
         for trial in range(config.trials):
-            settings = asdict(planner_config(mode, trial, config.max_time, config.share))
-            digest = fingerprint([family, size, mode, trial, settings, config.memory_mb, code])
-            key = f"{family}/n{size}/{mode}/trial{trial}/{digest}"
+            settings = asdict(planner_config(mode, trial, config.max_time, config.share, quality))
+            digest = fingerprint(
+                [family, size, mode, trial, settings, config.memory_mb, code, *source]
+            )
+            key = f"{family}/n{size}/{label(mode, quality)}/trial{trial}/{digest}"
             payload = Payload(
                 family,
                 size,
@@ -290,9 +366,15 @@ def jobs_for(config: TampBenchConfig, size: int, combos: Iterable[tuple[str, str
                 config.memory_mb,
                 config.jobs,
                 config.share,
+                quality,
+                files,
             )
             out.append(Job(key, payload))
     return out
+
+
+def _files_text(folder: Path | None) -> list[str]:
+    return [] if folder is None else [(folder / f).read_text() for f in pds_files.FILES]
 
 
 def _trial(result: dict[str, Any]) -> Trial:
@@ -305,7 +387,7 @@ def run_tamp(config: TampBenchConfig, console: Console | None = None) -> Report:
     console = console or Console()
     if config.jobs > 1:
         log.warning("bench tamp with %d parallel trials: CPU times are contended", config.jobs)
-    combos = [(f, m) for f in config.families for m in MODES]
+    combos = [(f, m, q) for f in config.families for m in config.modes for q in config.qualities]
     trials: list[Trial] = []
     for size in sorted(set(config.sizes)):
         if not combos:
@@ -322,7 +404,11 @@ def run_tamp(config: TampBenchConfig, console: Console | None = None) -> Report:
         now = [_trial(r) for r in results]
         trials += now
         if not config.keep_going:
-            combos = [c for c in combos if any(t.solved for t in now if (t.family, t.mode) == c)]
+            combos = [
+                c
+                for c in combos
+                if any(t.solved for t in now if (t.family, t.mode, t.quality) == c)
+            ]
     rows = summarise(trials, config)
     files = write_outputs(trials, rows, config)
     console.print(markdown_table(rows, config, cpu_share(trials)))
@@ -335,18 +421,21 @@ def summarise(trials: Sequence[Trial], config: TampBenchConfig) -> tuple[Row, ..
         for size in sorted(set(config.sizes)):
             cpu: dict[str, float | None] = {}
             wall: dict[str, float | None] = {}
+            cost: dict[str, float | None] = {}
             solved: dict[str, int] = {}
             invalid: dict[str, int] = {}
             ran: dict[str, bool] = {}
-            for mode in MODES:
-                ts = [t for t in trials if (t.family, t.size, t.mode) == (family, size, mode)]
+            for col in config.columns:
+                ts = [t for t in trials if (t.family, t.size, t.column) == (family, size, col)]
                 ok = [t for t in ts if t.solved]
-                cpu[mode] = statistics.median(t.cpu for t in ok) if ok else None
-                wall[mode] = statistics.median(t.wall for t in ok) if ok else None
-                solved[mode] = len(ok)
-                invalid[mode] = sum(t.status == "solved" and not t.valid for t in ts)
-                ran[mode] = bool(ts)
-            rows.append(Row(family, size, config.trials, cpu, wall, solved, invalid, ran))
+                costs = [t.cost for t in ok if t.cost is not None]
+                cpu[col] = statistics.median(t.cpu for t in ok) if ok else None
+                wall[col] = statistics.median(t.wall for t in ok) if ok else None
+                cost[col] = statistics.median(costs) if costs else None
+                solved[col] = len(ok)
+                invalid[col] = sum(t.status == "solved" and not t.valid for t in ts)
+                ran[col] = bool(ts)
+            rows.append(Row(family, size, config.trials, cpu, wall, solved, invalid, ran, cost))
     return tuple(rows)
 
 
@@ -357,11 +446,12 @@ def _fmt(x: float | None) -> str:
     return "—" if x is None else f"{x:.2f}"
 
 
-def _cell(r: Row, mode: str) -> str:
-    if not r.run[mode]:
-        return "not run | —"
-    bad = f", {r.invalid[mode]} invalid" if r.invalid[mode] else ""
-    return f"{_fmt(r.cpu[mode])} | {r.solved[mode]}/{r.trials}{bad}"
+def _cell(r: Row, col: str) -> str:
+    if not r.run[col]:
+        return "not run | — | —"
+    bad = f", {r.invalid[col]} invalid" if r.invalid[col] else ""
+    cost = "—" if r.cost.get(col) is None else f"{r.cost[col]:.1f}"
+    return f"{_fmt(r.cpu[col])} | {cost} | {r.solved[col]}/{r.trials}{bad}"
 
 
 def _reference(family: str, size: int) -> str:
@@ -381,22 +471,27 @@ def cpu_share(trials: Sequence[Trial]) -> float | None:
 
 def markdown_table(rows: Iterable[Row], config: TampBenchConfig, share: float | None = None) -> str:
     jobs = "trials one at a time" if config.jobs == 1 else f"{config.jobs} parallel: contended"
+    where = (
+        "pds-tamp2d"
+        if config.files is None
+        else "PDDLStream's continuous_tamp files with llmpas's 2-D streams"
+    )
+    cols = config.columns
+    header = " | ".join(f"{c} CPU (s) | cost | solved" for c in cols)
     lines = [
-        f"Planning CPU time on pds-tamp2d (median of solved and validated trials, CPU seconds of "
-        f"the planner's process and its Fast Downward children; {config.trials} seeded trials "
-        f"per size, limit {config.max_time:g} s wall per trial; {jobs}). Last column: "
-        f"{REFERENCE_LABEL}.",
+        f"Planning CPU time and plan cost on {where} (median of solved and validated trials, CPU "
+        f"seconds of the planner's process and its Fast Downward children, cost of the plan "
+        f"replayed on the real values; {config.trials} seeded trials per size, limit "
+        f"{config.max_time:g} s wall per trial; {jobs}). Last column: {REFERENCE_LABEL}.",
         "",
-        "| family | N | computed CPU (s) | solved | deferred CPU (s) | solved "
-        "| computed / deferred "
-        "| computed wall (s) | PDDLStream ref. (s) |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+        f"| family | N | {header} | computed / deferred | PDDLStream ref. (s) |",
+        "|---|---:|" + "---:|---:|---:|" * len(cols) + "---:|---:|",
     ]
     for r in rows:
         ratio = "—" if r.speedup is None else f"{r.speedup:.1f}x"
+        cells = " | ".join(_cell(r, c) for c in cols)
         lines.append(
-            f"| {r.family} | {r.size} | {_cell(r, 'computed')} | {_cell(r, 'deferred')} | "
-            f"{ratio} | {_fmt(r.wall['computed'])} | {_reference(r.family, r.size)} |"
+            f"| {r.family} | {r.size} | {cells} | {ratio} | {_reference(r.family, r.size)} |"
         )
     lines += [
         "",
@@ -421,7 +516,11 @@ def write_outputs(
     md_path = atomic_write(out / "tamp.md", markdown_table(rows, config, cpu_share(trials)))
     png_path = out / "tamp.png"
     plot(trials, rows, config, png_path)
-    return (csv_path, md_path, png_path)
+    written = [csv_path, md_path, png_path]
+    if "anytime" in config.qualities and any(t.quality == "anytime" and t.solved for t in trials):
+        written.append(out / "tamp-anytime.png")
+        plot_anytime(trials, config, written[-1])
+    return tuple(written)
 
 
 def plot(trials: Sequence[Trial], rows: Sequence[Row], config: TampBenchConfig, path: Path) -> None:
@@ -432,10 +531,11 @@ def plot(trials: Sequence[Trial], rows: Sequence[Row], config: TampBenchConfig, 
 
     families = list(config.families)
     fig, axes = plt.subplots(1, len(families), figsize=(6 * len(families), 4.5), squeeze=False)
-    colors = {"computed": "tab:red", "deferred": "tab:blue"}
+    palette = ("tab:red", "tab:blue", "tab:green", "tab:purple", "tab:orange", "tab:brown")
+    colors = dict(zip(config.columns, palette, strict=False))
     for ax, fam in zip(axes[0], families, strict=True):
-        for mode in MODES:
-            pts = [t for t in trials if t.family == fam and t.mode == mode]
+        for mode in config.columns:
+            pts = [t for t in trials if t.family == fam and t.column == mode]
             ok = [t for t in pts if t.solved]
             bad = [t for t in pts if not t.solved]
             ax.scatter(
@@ -449,13 +549,14 @@ def plot(trials: Sequence[Trial], rows: Sequence[Row], config: TampBenchConfig, 
                 color=colors[mode],
             )
             med = [(r.size, r.cpu[mode]) for r in rows if r.family == fam and r.cpu[mode]]
-            label = "every stream computed" if mode == "computed" else "IK and motion deferred"
+            what = "every stream computed" if mode.startswith("computed") else "IK, motion deferred"
+            quality = mode.partition("+")[2] or "fast"
             ax.plot(
                 [s for s, _ in med],
                 [m for _, m in med],
                 "-o",
                 color=colors[mode],
-                label=f"llmpas, {label} (median)",
+                label=f"llmpas, {what}, {quality} (median)",
             )
         _plot_reference(ax, fam, config.max_time)
         ax.axhline(config.max_time, color="gray", ls=":", lw=1)
@@ -466,6 +567,34 @@ def plot(trials: Sequence[Trial], rows: Sequence[Row], config: TampBenchConfig, 
         ax.set_title(f"{fam}: x = unsolved or invalid within {config.max_time:g} s")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(loc="upper left", fontsize=7)
+    fig.tight_layout()
+    save_figure(fig, path)
+    plt.close(fig)
+
+
+def plot_anytime(trials: Sequence[Trial], config: TampBenchConfig, path: Path) -> None:
+    """Anytime: each trial's plan cost over CPU time at one N (``config.anytime_size``, else the
+    largest N where an anytime trial solved), one panel per family; a step per cheaper plan."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    solved = [t for t in trials if t.quality == "anytime" and t.solved]
+    size = config.anytime_size or max(t.size for t in solved)
+    families = list(config.families)
+    fig, axes = plt.subplots(1, len(families), figsize=(6 * len(families), 4.2), squeeze=False)
+    for ax, fam in zip(axes[0], families, strict=True):
+        for t in [t for t in solved if (t.family, t.size) == (fam, size)]:
+            points = t.timeline()
+            xs = [c for c, _ in points] + [t.cpu]
+            ys = [v for _, v in points] + [points[-1][1]]
+            ax.step(xs, ys, where="post", marker="o", ms=3, label=f"{t.mode}, seed {t.trial}")
+        ax.set_xlabel("planning CPU time (s)")
+        ax.set_ylabel("plan cost (planner's)")
+        ax.set_title(f"{fam}, N = {size}: anytime, each cheaper plan (last point: it stops)")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7)
     fig.tight_layout()
     save_figure(fig, path)
     plt.close(fig)
@@ -505,6 +634,21 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--keep-going", action="store_true", help="run sizes past an unsolved one")
     p.add_argument("--jobs", type=int, default=1, help="parallel trials (> 1: contended)")
     p.add_argument("--out", default="results/tamp", help="folder for table, plot and cache")
+    p.add_argument("--modes", nargs="+", default=list(MODES), choices=MODES)
+    p.add_argument(
+        "--qualities",
+        nargs="+",
+        default=["fast"],
+        choices=tuple(QUALITIES),
+        help="plan qualities to run in each mode (a column each)",
+    )
+    p.add_argument("--anytime-size", type=int, help="N of the anytime plot (default: largest)")
+    p.add_argument(
+        "--pddlstream-files",
+        metavar="DIR",
+        help="plan PDDLStream's examples/continuous_tamp domain.pddl and stream.pddl from DIR "
+        "(with llmpas's own 2-D streams) instead of pds-tamp2d",
+    )
     p.add_argument(
         "--share-placeholders",
         action="store_true",
@@ -526,6 +670,10 @@ def command(args: argparse.Namespace, console: Console) -> int:
         out_dir=Path(args.out),
         executor=executor_from_args(args),
         share=args.share_placeholders,
+        modes=tuple(args.modes),
+        qualities=tuple(args.qualities),
+        files=Path(args.pddlstream_files) if args.pddlstream_files else None,
+        anytime_size=args.anytime_size,
     )
     report = run_tamp(config, console)
     console.print(f"wrote {', '.join(str(p) for p in report.files)}")
@@ -543,5 +691,7 @@ __all__ = [
     "Trial",
     "add_arguments",
     "command",
+    "label",
+    "plot_anytime",
     "run_tamp",
 ]

@@ -7,6 +7,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from llmpas.planning.quality import DEFAULT_QUALITY, QUALITIES, QualityName
 from llmpas.planning.result import Algorithm
 
 
@@ -59,6 +60,30 @@ class PlannerConfig:
     ``max_time``) and ``memory_mb``. When one fires the status is ``timeout`` (or ``error`` for
     memory), never ``unsolvable``: a verdict that depends on the machine's load.
 
+    *Plan quality* (``quality``, a name in :data:`~llmpas.planning.quality.QUALITIES`; ``llmpas
+    plan --quality``):
+
+    - ``fast``: a cost-blind greedy search; the first plan whose streams succeed is returned.
+    - ``anytime``: the same first plan, then searches bounded by the incumbent's cost (weighted
+      A* with w = 5, 3, 2, 1, then A* on h^max); each cheaper plan has its streams evaluated and
+      is replayed before it replaces the incumbent, and is logged and listed in
+      :attr:`~llmpas.planning.result.PlanResult.improvements` with its time and cost. It stops
+      when ``patience`` iterations in a row bring no cheaper plan, when no cheaper plan exists
+      even optimistically, or at a limit (``max_time``, ``max_iterations``, ``max_stream_calls``):
+      the incumbent is then returned as solved, the limit named in the message.
+    - ``optimal``: A* on h^max in every search; once a plan is realised, A* bounded by its cost
+      searches again with the real values until nothing cheaper is found: the cheapest plan
+      for the samples drawn, not over the continuous space.
+
+    The default is ``fast``, from one run of ``llmpas bench tamp --modes computed --qualities
+    fast anytime optimal`` (pds-tamp2d, mirror and packed, N = 1..8, one seed, 30 s wall per
+    trial on a loaded machine; docs/results/tamp.md): per instance, against ``fast``'s plan,
+    ``optimal`` cost 0.92x (median; 0.59x-1.08x) for 2.3x the CPU (0.2x-38x), and solved 12 of
+    its 14 trials (mirror N = 6 and packed N = 8 timed out; ``fast`` solved all 16);
+    ``anytime`` cost 0.89x (0.59x-1.0x) for 20x the CPU (it improves until its patience or the
+    time limit). Plans that may be replanned often must come quickly and surely: ``fast``.
+    ``search`` (a Fast Downward search string) replaces the quality's first search.
+
     :attr:`deterministic` holds when every counted limit is set; :meth:`validation` is the preset
     for deciding whether goals can be planned (the closed loop's validator), where the same
     inputs must give the same verdict on any machine and under any load.
@@ -73,7 +98,9 @@ class PlannerConfig:
     memory_mb: int = 4096
     seed: int = 0
     share_placeholders: bool = False
-    search: str | None = None  # a Fast Downward search string (None: lazy greedy with FF)
+    search: str | None = None  # a Fast Downward search string (None: the quality's)
+    quality: QualityName = DEFAULT_QUALITY
+    patience: int = 10  # anytime: iterations without a cheaper plan before it stops
     max_stream_calls: int | None = None
     max_empty_samples: int | None = None
 
@@ -86,8 +113,10 @@ class PlannerConfig:
             raise ValueError("max_time and search_time must be > 0")
         if not (math.isfinite(self.max_time) and math.isfinite(self.search_time)):
             raise ValueError("max_time and search_time must be finite (they are safety nets)")
-        if self.max_iterations < 1 or self.max_level < 1:
-            raise ValueError("max_iterations and max_level must be >= 1")
+        if self.max_iterations < 1 or self.max_level < 1 or self.patience < 1:
+            raise ValueError("max_iterations, max_level and patience must be >= 1")
+        if self.quality not in QUALITIES:
+            raise ValueError(f"quality must be one of {', '.join(QUALITIES)}, got {self.quality!r}")
         if self.memory_mb < 64:
             raise ValueError(f"memory_mb must be >= 64, got {self.memory_mb}")
         for name in ("max_stream_calls", "max_empty_samples"):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import enum
+import itertools
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -76,6 +77,7 @@ class Plan:
 @dataclass(frozen=True)
 class PlanStats:
     algorithm: str = ""
+    quality: str = ""
     iterations: int = 0
     stream_calls: Mapping[str, int] = field(default_factory=dict)
     stream_time: float = 0.0
@@ -87,16 +89,39 @@ class PlanStats:
         object.__setattr__(self, "stream_calls", MappingProxyType(dict(self.stream_calls)))
 
 
+@dataclass(frozen=True, eq=False)
+class Improvement:
+    """A plan found while planning, cheaper than every one before it: when (wall and CPU
+    seconds since the call started; CPU counts the Fast Downward children) and what it costs."""
+
+    time: float
+    cpu: float
+    cost: float
+    plan: Plan
+
+    def to_json(self) -> dict[str, float]:
+        return {"time": self.time, "cpu": self.cpu, "cost": self.cost, "length": len(self.plan)}
+
+
 @dataclass(frozen=True)
 class PlanResult:
+    """``improvements``: every plan that became the incumbent, in order, each cheaper than the
+    one before (one entry, the plan itself, unless the quality is ``anytime``)."""
+
     status: PlanStatus
     plan: Plan | None
     stats: PlanStats
     message: str = ""
+    improvements: tuple[Improvement, ...] = ()
 
     def __post_init__(self) -> None:
         if (self.plan is not None) != (self.status is PlanStatus.SOLVED):
             raise ValueError("a plan is present exactly when the status is SOLVED")
+        costs = [i.cost for i in self.improvements]
+        if any(b >= a for a, b in itertools.pairwise(costs)):
+            raise ValueError(f"improvements must get cheaper, got costs {costs}")
+        if self.improvements and self.improvements[-1].plan is not self.plan:
+            raise ValueError("the last improvement must be the plan returned")
 
     @property
     def solved(self) -> bool:
@@ -109,6 +134,7 @@ class PlanResult:
             "message": self.message,
             "stats": {
                 "algorithm": s.algorithm,
+                "quality": s.quality,
                 "iterations": s.iterations,
                 "stream_calls": dict(s.stream_calls),
                 "stream_time": s.stream_time,
@@ -129,6 +155,7 @@ class PlanResult:
                     for st in self.plan.steps
                 ],
             }
+            out["improvements"] = [i.to_json() for i in self.improvements]
         return out
 
     def dumps(self) -> str:

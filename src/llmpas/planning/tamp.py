@@ -9,6 +9,11 @@ needs no unevaluated stream.
 
 ``incremental``: evaluate every stream instance once per level on the real facts, then search.
 
+Plan quality (:mod:`~llmpas.planning.quality`): the config's quality names the search for the
+first plan and, for ``anytime``, the searches bounded by the incumbent's cost that look for
+cheaper plans afterwards; a cheaper optimistic plan becomes the incumbent only once its streams
+are evaluated and it replays over the real values (:func:`_realize`).
+
 In both, *deferred* streams are never evaluated here: the plan keeps their placeholders and lists,
 per action, the deferred instances the executor must satisfy.
 
@@ -21,6 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import resource
 import time
 from collections import Counter
 from dataclasses import dataclass, field
@@ -63,7 +69,9 @@ from llmpas.planning.instances import (
     negative_test_predicates,
     optimistic_instances,
 )
+from llmpas.planning.quality import QUALITIES, Quality
 from llmpas.planning.result import (
+    Improvement,
     Plan,
     PlanResult,
     PlanStats,
@@ -81,7 +89,7 @@ class _Run:
 
     problem: Problem
     config: PlannerConfig
-    classical: ClassicalPlanner
+    given: ClassicalPlanner | None  # the caller's planner (used for every search), or None
     store: StreamStore
     compiled: CompiledDomain
     negative_tests: set[str]
@@ -96,6 +104,41 @@ class _Run:
     search_time: float = 0.0
     cost_cache: dict[FuncTerm, float] = field(default_factory=dict)
     costs: dict[FuncTerm, float] = field(default_factory=dict)  # function values, last search
+    started_cpu: float = 0.0
+    improvements: list[Improvement] = field(default_factory=list)
+    idle: int = 0  # anytime: iterations since the last cheaper plan
+    planners: dict[str, ClassicalPlanner] = field(default_factory=dict)  # by search string
+
+    @property
+    def quality(self) -> Quality:
+        return QUALITIES[self.config.quality]
+
+    @property
+    def incumbent(self) -> Plan | None:
+        return self.improvements[-1].plan if self.improvements else None
+
+    def bound(self) -> int | None:
+        """Fast Downward's cost bound for the next search: the incumbent's scaled cost."""
+        best = self.incumbent
+        return None if best is None else round(best.cost * COST_SCALE)
+
+    def classical(self) -> ClassicalPlanner:
+        """The planner for the next search: the caller's, or Fast Downward with the quality's
+        search for the first plan (the config's ``search`` if set) or for a cheaper one."""
+        if self.given is not None:
+            return self.given
+        n = len(self.improvements)
+        explicit = self.config.search if n == 0 else None
+        command = explicit or self.quality.search(n).command(self.bound())
+        if command not in self.planners:
+            self.planners[command] = FastDownward(
+                DownwardConfig(
+                    search=command,
+                    max_time=self.config.search_time,
+                    memory_mb=self.config.memory_mb,
+                )
+            )
+        return self.planners[command]
 
     def deferred(self, b: BoundStream) -> bool:
         return b.schema.name in self.assumed
@@ -119,6 +162,7 @@ class _Run:
     def stats(self) -> PlanStats:
         return PlanStats(
             algorithm=self.config.algorithm,
+            quality=self.config.quality,
             iterations=self.iterations,
             stream_calls=dict(self.store.calls),
             stream_time=self.store.time,
@@ -128,7 +172,40 @@ class _Run:
         )
 
     def result(self, status: PlanStatus, message: str, plan: Plan | None = None) -> PlanResult:
-        return PlanResult(status, plan, self.stats(), message)
+        """The call's result; once a plan was found (anytime), a limit or failure ends the
+        search for cheaper ones and returns the cheapest plan, the reason in the message."""
+        best = self.incumbent
+        if status is not PlanStatus.SOLVED and best is not None:
+            status, plan = PlanStatus.SOLVED, best
+            message = f"cheapest of {len(self.improvements)} plan(s) kept; stopped: {message}"
+        return PlanResult(status, plan, self.stats(), message, tuple(self.improvements))
+
+    def accept(self, plan: Plan) -> PlanResult | None:
+        """A plan whose streams are evaluated (and which replays): the result, unless the
+        quality looks for cheaper plans (then None: planning goes on with a cost bound)."""
+        best = self.incumbent
+        if best is None or plan.cost < best.cost:
+            wall, cpu = time.perf_counter() - self.started, _cpu() - self.started_cpu
+            self.improvements.append(Improvement(wall, cpu, plan.cost, plan))
+            self.idle = 0
+            log.info(
+                "plan %d: cost %g, %d steps, after %.2f s (%.2f s CPU)",
+                len(self.improvements), plan.cost, len(plan), wall, cpu,
+            )  # fmt: skip
+        if not self.quality.anytime:
+            return self.result(PlanStatus.SOLVED, "", self.incumbent)
+        return None
+
+    def patience_left(self) -> PlanResult | None:
+        """Anytime: the incumbent once ``patience`` iterations brought no cheaper plan."""
+        if self.incumbent is None:
+            return None
+        if self.idle >= self.config.patience:
+            return self.result(
+                PlanStatus.TIMEOUT, f"{self.idle} iterations without a cheaper plan (patience)"
+            )
+        self.idle += 1
+        return None
 
 
 def solve(
@@ -160,6 +237,7 @@ def _added(a: PlanStats, b: PlanStats) -> PlanStats:
     calls.update(b.stream_calls)
     return PlanStats(
         algorithm=b.algorithm,
+        quality=b.quality,
         iterations=a.iterations + b.iterations,
         stream_calls=dict(calls),
         stream_time=a.stream_time + b.stream_time,
@@ -175,11 +253,6 @@ def _solve_once(
     classical: ClassicalPlanner | None,
     started: float,
 ) -> PlanResult:
-    if classical is None:
-        search = {} if config.search is None else {"search": config.search}
-        classical = FastDownward(
-            DownwardConfig(max_time=config.search_time, memory_mb=config.memory_mb, **search)
-        )
     negative = negative_test_predicates(problem)
     assumed = frozenset(
         b.schema.name for b in problem.bound_streams.values() if config.defer and b.info.deferred
@@ -197,6 +270,7 @@ def _solve_once(
         assumed,
         started,
         inline=inline,
+        started_cpu=_cpu(),
     )
     run.domain_text = guard_quantifiers(run.compiled.domain).to_pddl()
     try:
@@ -220,6 +294,9 @@ def _focused(run: _Run) -> PlanResult:
     run.complexity_limit = run.config.max_level
     while run.iterations < run.config.max_iterations:
         run.iterations += 1
+        stop = run.patience_left()
+        if stop is not None:
+            return stop
         evaluate_negative_tests(store, _negative_streams(run))
         if store.out_of_time():
             return _time_limit(run)
@@ -235,11 +312,16 @@ def _focused(run: _Run) -> PlanResult:
         if evaluated is not None:
             realized = _realize(run, evaluated, opt)
             if realized is not None:
-                return run.result(PlanStatus.SOLVED, "", realized)
+                evaluated = None
+                done = run.accept(realized)
+                if done is not None:
+                    return done
         found = _search(run, opt)
         if isinstance(found, PlanResult):
             return found
-        if found is None:  # no plan even with every enabled instance assumed
+        if found is None:  # no plan (no cheaper plan) even with every enabled instance assumed
+            if run.incumbent is not None and not run.quality.keep_sampling:
+                return run.result(PlanStatus.UNSOLVABLE, _unsolvable_message(run))
             if _widen(run, closure):
                 continue
             return run.result(PlanStatus.UNSOLVABLE, _unsolvable_message(run))
@@ -247,7 +329,10 @@ def _focused(run: _Run) -> PlanResult:
         per_step, trace = _replayed(_retrace(run, actions, opt))
         needed = [i for insts in per_step for i in insts if not run.deferred(i.stream)]
         if not needed:
-            return run.result(PlanStatus.SOLVED, "", _final_plan(run, actions, per_step, cost))
+            done = run.accept(_final_plan(run, actions, per_step, cost))
+            if done is not None:
+                return done
+            continue
         real = _evaluate(run, needed, trace)
         evaluated = _Evaluated(actions, [i for insts in per_step for i in insts], trace, real)
     return _iteration_limit(run)
@@ -256,7 +341,8 @@ def _focused(run: _Run) -> PlanResult:
 def _time_limit(run: _Run, where: str = "") -> PlanResult:
     return run.result(
         PlanStatus.TIMEOUT,
-        f"time limit reached: no plan within max_time={run.config.max_time:g} s" + where,
+        f"time limit reached: {'' if run.incumbent else 'no plan within '}"
+        f"max_time={run.config.max_time:g} s" + where,
     )
 
 
@@ -513,6 +599,9 @@ def _incremental(run: _Run) -> PlanResult:
     level = 0
     while run.iterations < run.config.max_iterations:
         run.iterations += 1
+        stop = run.patience_left()
+        if stop is not None:
+            return stop
         evaluate_negative_tests(store, _negative_streams(run))
         opt = optimistic_instances(
             store, lambda b: run.deferred(b) and run.instantiated(b), run.config.max_level
@@ -524,7 +613,12 @@ def _incremental(run: _Run) -> PlanResult:
         if found is not None:
             actions, cost = found
             per_step, _ = _replayed(_retrace(run, actions, opt))
-            return run.result(PlanStatus.SOLVED, "", _final_plan(run, actions, per_step, cost))
+            done = run.accept(_final_plan(run, actions, per_step, cost))
+            if done is not None:
+                return done
+            continue  # anytime: search this level again for a cheaper plan
+        if run.incumbent is not None and not run.quality.keep_sampling:
+            return run.result(PlanStatus.UNSOLVABLE, _unsolvable_message(run))
         level += 1
         if not _one_level(run):
             return run.result(PlanStatus.UNSOLVABLE, _unsolvable_message(run))
@@ -597,10 +691,11 @@ def _search(
     budget = min(run.config.search_time, run.remaining())
     if budget <= 0:
         return _time_limit(run)
+    classical = run.classical()
     res: ClassicalPlan = (
-        run.classical.solve_task(run.domain_text, task, max_time=budget)
-        if isinstance(run.classical, TaskPlanner)
-        else run.classical.solve(run.domain_text, task.text, max_time=budget)
+        classical.solve_task(run.domain_text, task, max_time=budget)
+        if isinstance(classical, TaskPlanner)
+        else classical.solve(run.domain_text, task.text, max_time=budget)
     )
     run.translate_time += res.translate_time
     run.search_time += res.search_time
@@ -764,11 +859,21 @@ def _final_plan(
     )
 
 
+def _cpu() -> float:
+    """CPU seconds of this process and its finished children (the Fast Downward searches)."""
+    own, kids = (
+        resource.getrusage(resource.RUSAGE_SELF),
+        resource.getrusage(resource.RUSAGE_CHILDREN),
+    )
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
 def _unsolvable_message(run: _Run) -> str:
     n = len(run.store.records)
     exhausted = sum(r.exhausted for r in run.store.records.values())
     missing = missing_function_value(run.problem)
     return (
-        f"no plan: the classical planner found none after {run.iterations} iteration(s); "
+        f"{'no cheaper plan' if run.incumbent else 'no plan'}: the classical planner found "
+        f"none after {run.iterations} iteration(s); "
         f"{exhausted} of {n} stream instances exhausted" + (f" ({missing})" if missing else "")
     )

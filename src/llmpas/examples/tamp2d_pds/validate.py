@@ -59,6 +59,7 @@ class Validation:
     message: str
     stage: str = ""
     deferred_evaluated: int = 0
+    cost: float | None = None  # the plan's cost on the real values (replay), when it replays
 
     def __post_init__(self) -> None:
         if self.valid != (self.message == "ok"):
@@ -77,12 +78,15 @@ def validate(world: World, problem: Problem, plan: Plan) -> Validation:
         return Validation(False, str(e), "deferred")
     steps: list[Step] = [(s.action, s.args) for s in plan.steps]
     n = len(plan.deferred)
-    for stage, check in (("replay", check_replay), ("geometry", check_geometry)):
-        try:
-            check(world, problem, plan, steps, values)
-        except Invalid as e:
-            return Validation(False, str(e), stage, n)
-    return Validation(True, "ok", "", n)
+    try:
+        cost = check_replay(world, problem, plan, steps, values)
+    except Invalid as e:
+        return Validation(False, str(e), "replay", n)
+    try:
+        check_geometry(world, problem, plan, steps, values)
+    except Invalid as e:
+        return Validation(False, str(e), "geometry", n, cost)
+    return Validation(True, "ok", "", n, cost)
 
 
 def complete_values(problem: Problem, plan: Plan) -> dict[str, Any]:
@@ -106,7 +110,8 @@ def complete_values(problem: Problem, plan: Plan) -> dict[str, Any]:
 
 def check_replay(
     world: World, problem: Problem, plan: Plan, steps: list[Step], values: Mapping[str, Any]
-) -> None:
+) -> float:
+    """The plan's cost, replayed on the real values; :class:`Invalid` if it does not replay."""
     claimed = {a for a in plan.certified if a.predicate not in TEST_PREDICATES}
     facts = set(problem.init) | claimed
     facts |= recomputed_tests(world, facts, values)
@@ -120,6 +125,7 @@ def check_replay(
     result = replay(sem, facts, steps, problem.goal)
     if not result.valid:
         raise Invalid(f"replay: {result.message}")
+    return result.cost
 
 
 def recomputed_tests(world: World, facts: set[Atom], values: Mapping[str, Any]) -> set[Atom]:
