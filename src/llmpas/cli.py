@@ -677,15 +677,14 @@ def _cmd_doctor(args: argparse.Namespace, console: Console) -> int:
         raise CliError(f"unknown model {args.model!r}; known models: {', '.join(sorted(MODELS))}")
     with console.status("checking (the self-test decodes a few tokens) ..."):
         found = checks(args.model, args.cache, decode=not args.no_self_test)
-    table = Table(box=None, show_header=True, header_style="bold")
-    for column in ("part", "", "found", "fix"):
-        table.add_column(column, overflow="fold")
     colour = {Verdict.OK: "green", Verdict.SKIPPED: "yellow"}
     for check in found:
         mark = check.verdict.value + ("" if check.required else " (optional)")
         style = colour.get(check.verdict, "red" if check.required else "yellow")
-        table.add_row(check.name, Text(mark, style=style), check.detail, check.fix)
-    console.print(table)
+        line = Text.assemble((f"{mark:<19}", style), f"{check.name}: {check.detail}")
+        console.print(line, soft_wrap=True, highlight=False)
+        if check.fix:
+            console.print(Text(f"{'':<19}fix: {check.fix}"), soft_wrap=True, highlight=False)
     blocking = [c.name for c in found if c.blocking]
     if blocking:
         console.print(f"[bold red]missing or failing:[/] {escape(', '.join(blocking))}")

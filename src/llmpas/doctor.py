@@ -109,6 +109,7 @@ def model(name: str, cache: str | None = None) -> tuple[Check, Path | None]:
 
     path = model_path(name, cache)
     command = "llmpas model install" + ("" if name == DEFAULT_MODEL else f" {name}")
+    command += "" if cache is None else f" --cache {cache}"
     spec = get_spec(name)
     if not path.is_file():
         return Check(f"model {name}", Verdict.MISSING, f"no {path}", command), None
