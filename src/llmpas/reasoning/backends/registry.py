@@ -37,23 +37,24 @@ def _openai(arg: str, record: str | None) -> LLM:
     if not model:
         raise ValueError("openai:MODEL[@BASE_URL] needs a model name")
     timeout = _timeout(os.environ.get(TIMEOUT_VARIABLE))
-    backend = OpenAIBackend(model, base_url=base_url or None, **timeout)
+    backend = OpenAIBackend(model, base_url=base_url or None, timeout=timeout)
     return _recorded(backend, record)
 
 
-TIMEOUT_VARIABLE = "LLMPAS_LLM_TIMEOUT"  # seconds per request of an HTTP backend (default 30)
+TIMEOUT_VARIABLE = "LLMPAS_LLM_TIMEOUT"  # seconds per request of an HTTP backend
+DEFAULT_TIMEOUT = 30.0
 
 
-def _timeout(value: str | None) -> dict[str, float]:
+def _timeout(value: str | None) -> float:
     if value is None or not value.strip():
-        return {}
+        return DEFAULT_TIMEOUT
     try:
         seconds = float(value)
     except ValueError:
         seconds = math.nan
     if not (math.isfinite(seconds) and seconds > 0):
         raise ValueError(f"{TIMEOUT_VARIABLE}={value!r}: expected a positive number of seconds")
-    return {"timeout": seconds}
+    return seconds
 
 
 def _llama_cpp(arg: str, record: str | None) -> LLM:
