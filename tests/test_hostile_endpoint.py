@@ -150,9 +150,14 @@ def test_hostile_endpoint_through_llmpas_run(case: str, tmp_path: Path) -> None:
 
 
 def test_ctrl_c_while_the_llm_answers_keeps_the_rounds_run(tmp_path: Path) -> None:
+    """The LLM never answers and its deadline is beyond the hang guard, so that only the
+    interrupt can end the run, however slow the machine (with the default 30 s deadline a busy
+    machine let the deadline fire first)."""
     out = tmp_path / "out"
-    env = dict(os.environ, OPENAI_API_KEY=SECRET, NO_COLOR="1")
-    with serve(Reply(200, completion_body("(and (scanned table2_right))"), delay=300.0)) as srv:
+    timeout = str(2 * HANG_GUARD)
+    env = dict(os.environ, OPENAI_API_KEY=SECRET, NO_COLOR="1", LLMPAS_LLM_TIMEOUT=timeout)
+    never = Reply(200, completion_body("(and (scanned table2_right))"), delay=4 * HANG_GUARD)
+    with serve(never) as srv:
         args = ["run", "object-loss-table", "--llm", f"openai:m@{srv.url}", "--out", str(out)]
         proc = subprocess.Popen(
             [sys.executable, "-m", "llmpas.cli", *args],
@@ -172,8 +177,9 @@ def test_ctrl_c_while_the_llm_answers_keeps_the_rounds_run(tmp_path: Path) -> No
             stdout, stderr = proc.communicate(timeout=HANG_GUARD)
         finally:
             proc.kill()
-    assert proc.returncode != 0
+    assert proc.returncode == ExitCode.INTERRUPTED, stderr
     assert "Traceback" not in stdout + stderr and "interrupted" in stderr
+    assert len(srv.received) == 1  # interrupted in the first request: no retry, no next one
     record = json.loads((out / "loop.json").read_text(encoding="utf-8"))
     assert record["status"] == "interrupted"
     assert record["rounds"][0]["episode"]["anomaly"] is not None

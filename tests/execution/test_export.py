@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import re
-import shutil
 import sys
 import xml.etree.ElementTree as ET
 from collections.abc import Iterator
@@ -31,6 +30,7 @@ from llmpas.execution.space import Dimension
 from llmpas.execution.world import SkillResult
 from llmpas.language.logic import Atom
 
+from ..system_packages import needs_dot
 from .toy import ToyWorld, pick_spec
 
 IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
@@ -290,9 +290,6 @@ def test_dot_source_has_a_node_per_tree_node() -> None:
     assert len(re.findall(r"->", src)) == 8
     odd = to_dot(odd_spec())
     assert r"pick \"big\" <cube> & co" in odd
-
-
-needs_dot = pytest.mark.skipif(shutil.which("dot") is None, reason="graphviz 'dot' not installed")
 
 
 @needs_dot

@@ -376,3 +376,17 @@ def test_llamacpp_an_invalid_grammar_is_an_llm_error(grammar: str) -> None:
     """llama.cpp really parses the grammar: a broken one is refused, not ignored."""
     with pytest.raises(LLMError, match="grammar"):
         sample(tiny_backend(n_ctx=512), grammar, "Say something.", max_tokens=8)
+
+
+def test_the_http_deadline_comes_from_llmpas_llm_timeout(monkeypatch: pytest.MonkeyPatch) -> None:
+    from llmpas.reasoning.backends.registry import make_backend
+
+    monkeypatch.setenv("OPENAI_API_KEY", "sk-test")
+    monkeypatch.delenv("LLMPAS_LLM_TIMEOUT", raising=False)
+    assert make_backend("openai:m@http://127.0.0.1:9/v1").timeout == 30.0
+    monkeypatch.setenv("LLMPAS_LLM_TIMEOUT", "1200")
+    assert make_backend("openai:m@http://127.0.0.1:9/v1").timeout == 1200.0
+    for bad in ("soon", "0", "-5", "inf", "nan"):
+        monkeypatch.setenv("LLMPAS_LLM_TIMEOUT", bad)
+        with pytest.raises(ValueError, match=r"LLMPAS_LLM_TIMEOUT=.*positive number of seconds"):
+            make_backend("openai:m@http://127.0.0.1:9/v1")

@@ -12,6 +12,8 @@ import pytest
 from llmpas.reasoning.llm import Request, Response
 from llmpas.reporting import browser
 
+from ..system_packages import skip_without_chromium
+
 HOSTILE = (
     "<script>alert(1)</script> <img src=x onerror=alert(2)> "
     "\x1b[31mred\x1b[0m \x1b]0;title\x07 \ud800 \u202eevil\u202c & \"quoted\" 'single'"
@@ -55,11 +57,7 @@ def hostile_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="session")
 def driver() -> Iterator[Any]:
     """Headless Chromium: a failure in CI when it is missing, else a skip."""
-    if not browser.available():
-        message = f"{browser.CHROMIUM} / {browser.CHROMEDRIVER} missing (.ci/run installs them)"
-        if browser.in_ci():
-            pytest.fail(message)
-        pytest.skip(message)
+    skip_without_chromium()
     pytest.importorskip("selenium")
     with browser.chromium() as d:
         yield d

@@ -12,9 +12,11 @@ import pytest
 from llmpas.cli import main
 from llmpas.reporting import browser, build_report, read_run, render
 
+from ..system_packages import needs_dot, skip_without_chromium
 from .conftest import HOSTILE
 
 
+@needs_dot  # the 4 diagrams are counted
 def test_the_main_job_page_loads_clean_with_every_image_decoded(
     driver: Any, main_job: Path
 ) -> None:
@@ -52,8 +54,7 @@ def test_a_hostile_llm_answer_is_shown_as_text_and_runs_nothing(
 
 
 def test_the_screenshot_is_the_whole_page(main_job: Path, tmp_path: Path) -> None:
-    if not browser.available():
-        pytest.skip("no chromium") if not browser.in_ci() else pytest.fail("no chromium")
+    skip_without_chromium()
     from PIL import Image
 
     shot = browser.screenshot(main_job / "index.html", tmp_path / "page.png", width=1000)

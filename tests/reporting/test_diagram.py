@@ -2,15 +2,12 @@
 
 from __future__ import annotations
 
-import shutil
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-import pytest
-
 from llmpas.reporting import diagram
 
-HAS_DOT = shutil.which("dot") is not None
+from ..system_packages import needs_dot
 
 
 def test_every_subtree_of_the_main_job_is_read_with_its_constraints(main_job: Path) -> None:
@@ -25,7 +22,7 @@ def test_every_subtree_of_the_main_job_is_read_with_its_constraints(main_job: Pa
     assert dot.count("->") == dot.count("[label=") - 1  # a tree: one parent per node but one
 
 
-@pytest.mark.skipif(not HAS_DOT, reason="graphviz is not installed")
+@needs_dot
 def test_hostile_names_are_quoted_for_graphviz(tmp_path: Path) -> None:
     f = tmp_path / "bt.xml"
     f.write_text(

@@ -12,6 +12,7 @@ import pytest
 from llmpas.cli import main
 from llmpas.reporting import ReportError, build_report, read_run, render
 
+from ..system_packages import needs_dot
 from .conftest import HOSTILE
 
 
@@ -19,6 +20,7 @@ def _page(folder: Path) -> str:
     return (folder / "index.html").read_text(encoding="utf-8")
 
 
+@needs_dot  # its CSubBT diagrams are counted
 def test_the_main_job_writes_a_page_with_every_round_and_the_reasoning(main_job: Path) -> None:
     page = _page(main_job)
     run = read_run(main_job)
@@ -75,6 +77,7 @@ def test_images_beyond_the_budget_are_linked_beside_the_page(main_job: Path) -> 
     assert page.count('<figure id="tree-') == page.count("<pre>Explore (40 attempts)") + 1
 
 
+@needs_dot  # its CSubBT diagrams are counted
 def test_a_single_episode_from_execute_gets_the_same_page(tmp_path: Path) -> None:
     out = tmp_path / "mw"
     assert main(["execute", "action-blocking-microwave", "--out", str(out)]) == 1

@@ -8,6 +8,7 @@ requirement and predicate, so Fast Downward and the ``pddl`` package both read i
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Collection, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -47,6 +48,8 @@ from llmpas.language.sexpr import (
     keyword_sections,
     parse_definition,
 )
+
+log = logging.getLogger(__name__)
 
 FULL_REQUIREMENTS = (
     ":strips",
@@ -284,6 +287,22 @@ def typed_names(
     return out
 
 
+def _twice(pos: Pos, what: str, name: str, first: object, again: object) -> None:
+    """A second declaration of ``name``: read with a warning when it says the same as the first
+    (Fast Downward does the same), else an error naming both."""
+    if _declared(first) != _declared(again):
+        raise pos.error(f"{what} '{name}' is declared twice, differently: {first} and {again}")
+    where = f"{pos.filename}:{pos.line}:{pos.col}"
+    log.warning(
+        "%s: %s '%s' is declared twice (identically); the repeat is ignored", where, what, name
+    )
+
+
+def _declared(x: object) -> object:
+    """What a declaration says: a signature's parameter types (not their variable names)."""
+    return (x.name, tuple(p.type for p in x.params)) if isinstance(x, Signature) else x
+
+
 UNSUPPORTED_REQUIREMENTS = frozenset(
     {
         ":durative-actions",
@@ -327,17 +346,20 @@ class _DomainReader:
         elif key == ":types":
             self._types(body)
         elif key == ":constants":
-            before = {c.name for c in self.constants}
-            for c, sym in typed_names(body, ":constants", self.declared_types):
+            before = {c.name: c.type for c in self.constants}
+            for c, sym in typed_names(body, ":constants", self.declared_types, unique=False):
                 if c.name in before:
-                    raise sym.pos.error(f"constant '{c.name}' is declared twice")
+                    _twice(sym.pos, "constant", c.name, before[c.name], c.type)
+                    continue
+                before[c.name] = c.type
                 self.constants += (c,)
         elif key == ":predicates":
             for x in body:
                 decl = expect_list(x, "a predicate declaration")
                 sig = _signature(decl, self.declared_types)
                 if sig.name in self.predicates:
-                    raise decl.pos.error(f"predicate '{sig.name}' is declared twice")
+                    _twice(decl.pos, "predicate", sig.name, self.predicates[sig.name], sig)
+                    continue
                 self.predicates[sig.name] = sig
         elif key == ":functions":
             self._functions(body)
@@ -363,11 +385,13 @@ class _DomainReader:
             raise s.pos.error(f"unknown domain section '{key}'")
 
     def _types(self, body: tuple[SExpr, ...]) -> None:
-        for p, sym in typed_names(body, ":types"):
+        for p, sym in typed_names(body, ":types", unique=False):
             if p.name == "object" and p.type == "object":
                 continue
             if p.name in self.types:
-                raise sym.pos.error(f"type '{p.name}' is declared twice")
+                first = f"{p.name} - {self.types[p.name]}"
+                _twice(sym.pos, "type", p.name, first, f"{p.name} - {p.type}")
+                continue
             self.types[p.name] = p.type
             chain = [p.name]
             while chain[-1] in self.types and chain[-1] != "object":
@@ -383,7 +407,10 @@ class _DomainReader:
             if isinstance(x, Sym) and x.text == "-":
                 i += 2  # skip "- number"
                 continue
-            sig = _signature(expect_list(x, "a function declaration"), self.declared_types)
+            decl = expect_list(x, "a function declaration")
+            sig = _signature(decl, self.declared_types)
+            if sig.name in self.functions:
+                _twice(decl.pos, "function", sig.name, self.functions[sig.name], sig)
             self.functions[sig.name] = sig
             i += 1
 

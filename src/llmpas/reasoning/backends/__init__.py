@@ -1,7 +1,7 @@
 """LLM backends implementing :class:`llmpas.reasoning.llm.LLM`.
 
 - :class:`OpenAIBackend`: any OpenAI-compatible HTTP server (OpenAI, ``llama_cpp.server``, vLLM);
-- :class:`LlamaCppBackend`: a local GGUF model through ``llama-cpp-python`` (in process);
+- :class:`LlamaCppBackend`: a local GGUF model through ``llama-cpp-python`` (in a worker process);
 - :class:`ReplayBackend`: record/replay cassettes keyed by :meth:`Request.key`, for tests and CI.
 
 Third-party packages (``openai``, ``llama_cpp``) are imported lazily, when a backend is built.

@@ -8,6 +8,8 @@ raise :class:`ValueError` naming the spec; nothing is loaded before the spec is 
 
 from __future__ import annotations
 
+import math
+import os
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -34,7 +36,25 @@ def _openai(arg: str, record: str | None) -> LLM:
     model, _, base_url = arg.partition("@")
     if not model:
         raise ValueError("openai:MODEL[@BASE_URL] needs a model name")
-    return _recorded(OpenAIBackend(model, base_url=base_url or None), record)
+    timeout = _timeout(os.environ.get(TIMEOUT_VARIABLE))
+    backend = OpenAIBackend(model, base_url=base_url or None, timeout=timeout)
+    return _recorded(backend, record)
+
+
+TIMEOUT_VARIABLE = "LLMPAS_LLM_TIMEOUT"  # seconds per request of an HTTP backend
+DEFAULT_TIMEOUT = 30.0
+
+
+def _timeout(value: str | None) -> float:
+    if value is None or not value.strip():
+        return DEFAULT_TIMEOUT
+    try:
+        seconds = float(value)
+    except ValueError:
+        seconds = math.nan
+    if not (math.isfinite(seconds) and seconds > 0):
+        raise ValueError(f"{TIMEOUT_VARIABLE}={value!r}: expected a positive number of seconds")
+    return seconds
 
 
 def _llama_cpp(arg: str, record: str | None) -> LLM:

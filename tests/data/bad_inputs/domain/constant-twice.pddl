@@ -1,6 +1,6 @@
-; expect: 3 'c1' is named twice in :constants
+; expect: 3 constant 'c1' is declared twice, differently: t and object
 (define (domain place1d)
-  (:requirements :strips) (:constants c1 c2 c1)
+  (:requirements :strips :typing) (:types t) (:constants c1 - t c2 c1)
   (:predicates (Block ?b) (Region ?r) (Pose ?b ?p) (AtPose ?b ?p) (Contained ?b ?p ?r)
                (HandEmpty) (Holding ?b) (CFree ?b1 ?p1 ?b2 ?p2)
                (Conf ?q) (AtConf ?q) (Reach ?b ?p ?q))

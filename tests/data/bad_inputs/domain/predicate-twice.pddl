@@ -1,8 +1,8 @@
-; expect: 3 :5:41: predicate 'block' is declared twice
+; expect: 3 :5:41: predicate 'block' is declared twice, differently: (block ?b) and (block ?x ?y)
 (define (domain place1d)
   (:requirements :strips :equality)
   (:predicates (Block ?b) (Region ?r) (Pose ?b ?p) (AtPose ?b ?p) (Contained ?b ?p ?r)
-               (HandEmpty) (Holding ?b) (Block ?x) (CFree ?b1 ?p1 ?b2 ?p2)
+               (HandEmpty) (Holding ?b) (Block ?x ?y) (CFree ?b1 ?p1 ?b2 ?p2)
                (Conf ?q) (AtConf ?q) (Reach ?b ?p ?q))
   (:derived (In ?b ?r) (exists (?p) (and (Contained ?b ?p ?r) (AtPose ?b ?p))))
   (:derived (Unsafe ?b ?p) (exists (?b2 ?p2) (and (Pose ?b2 ?p2) (AtPose ?b2 ?p2)

@@ -1,6 +1,6 @@
-; expect: 3 type 'a' is declared twice
+; expect: 3 type 'a' is declared twice, differently: a - object and a - b
 (define (domain place1d)
-  (:requirements :typing) (:types a b) (:types a)
+  (:requirements :typing) (:types a b) (:types a - b)
   (:predicates (Block ?b) (Region ?r) (Pose ?b ?p) (AtPose ?b ?p) (Contained ?b ?p ?r)
                (HandEmpty) (Holding ?b) (CFree ?b1 ?p1 ?b2 ?p2)
                (Conf ?q) (AtConf ?q) (Reach ?b ?p ?q))

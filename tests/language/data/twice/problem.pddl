@@ -1,0 +1,5 @@
+(define (problem carry-one) (:domain twice-declared)
+  (:objects r0 b0 red grey)
+  (:init (Robot r0) (Block b0) (Region red) (Region grey)
+         (At r0 grey) (In b0 grey) (HandEmpty r0))
+  (:goal (In b0 red)))
