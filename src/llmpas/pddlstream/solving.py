@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 import logging
 import math
-import time
+import resource
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -39,7 +39,7 @@ _AX = "axioms=approximate_negative"
 PLANNERS = {
     "dijkstra": "astar(blind())",
     "max-astar": f"astar(hmax({_AX}))",
-    "lmcut-astar": f"astar(lmcut({_AX}))" ,
+    "lmcut-astar": f"astar(hmax({_AX}))",  # LM-cut has no axiom option: another admissible one
     "ff-astar": f"astar(ff({_AX}))",
     "ff-eager": f"eager_greedy([ff({_AX})])",
     "ff-lazy": f"lazy_greedy([ff({_AX})])",
@@ -57,7 +57,7 @@ _QUIET = frozenset({"verbose", "debug", "visualize", "max_planner_time", "clean"
 @dataclass(frozen=True)
 class Attempt:
     """One call of ``solve``: the translated problem, llmpas's result, the solution returned
-    and the CPU seconds of this process it took."""
+    and the CPU seconds it took (this process and the planner's child processes)."""
 
     translation: Translation
     result: PlanResult
@@ -112,11 +112,11 @@ def solve(
         memory_mb=4096 if math.isinf(max_memory) else max(64, int(max_memory)),
         search=search,
     )
-    started = time.process_time()
+    started = _cpu()
     tr = translate(problem, stream_info, unit_costs=unit_costs, notes=ctx.notes)
     result = plan(tr.problem, config)
     solution = solution_of(tr, result, unit_costs, problem.init)
-    attempt = Attempt(tr, result, solution, time.process_time() - started, unit_costs)
+    attempt = Attempt(tr, result, solution, _cpu() - started, unit_costs)
     if ctx.on_attempt is not None:
         ctx.on_attempt(attempt)
     if result.status is PlanStatus.ERROR:
@@ -124,6 +124,13 @@ def solve(
     if not result.solved:
         log.warning("pddlstream: no plan (%s): %s", result.status.value, result.message)
     return solution
+
+
+def _cpu() -> float:
+    """CPU seconds of this process and its finished children (Fast Downward runs in them)."""
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
 
 
 def solution_of(

@@ -22,7 +22,7 @@ from typing import Any
 from llmpas.errors import InputError
 from llmpas.inputs import PDDL_LIMIT, read_text
 from llmpas.language.bindings import Implementation, Kind, StreamInfo, bind
-from llmpas.language.domain import Domain, parse_domain
+from llmpas.language.domain import Domain, Signature, parse_domain
 from llmpas.language.errors import BindingError, ModelError
 from llmpas.language.logic import (
     And,
@@ -122,8 +122,15 @@ def translate(
     given = {str(k).lower(): v for k, v in dict(constant_map or {}).items()}
     naming = Naming(given, constants)
     atoms, costs = _init(init, naming)
+    domain = _declare_extra_facts(domain, spec, atoms)
     goal_f = _formula(goal, naming, frozenset(), "goal")
     implementations = _implementations(spec, stream_map, stream_info or {}, notes)
+    for s in spec.streams:  # fluent facts reach the user's code with values, as in PDDLStream
+        if s.fluents and s.name in implementations:
+            impl = implementations[s.name]
+            implementations[s.name] = dataclasses.replace(
+                impl, fn=_FluentValues(impl.fn, naming.values)
+            )
     bs, bf = bind(spec, implementations)
     objects = dict(naming.values)
     for c in constants - objects.keys():
@@ -180,6 +187,23 @@ def _streams(obj: Any) -> StreamSpec:
     )
 
 
+def _declare_extra_facts(domain: Domain, spec: StreamSpec, init: list[Atom]) -> Domain:
+    """The domain with the predicates that only stream domains or the init use declared
+    (``Graspable`` in PDDLStream's kuka example, ``AConf`` in its pybullet/tamp one):
+    PDDLStream accepts init facts of those."""
+    extra: dict[str, Signature] = {}
+    certified = spec.certified_predicates
+    atoms = [a for s in spec.streams for a in s.domain] + list(init)
+    for a in atoms:
+        known = a.predicate in domain.predicates or a.predicate in domain.undeclared
+        if not known and a.predicate not in extra and a.predicate not in certified:
+            params = tuple(Param(f"?x{i}") for i in range(len(a.args)))
+            extra[a.predicate] = Signature(a.predicate, params)
+    if not extra:
+        return domain
+    return dataclasses.replace(domain, predicates={**domain.predicates, **extra})
+
+
 def _costless(effects: tuple[EffectItem, ...]) -> tuple[EffectItem, ...]:
     out: list[EffectItem] = []
     for e in effects:
@@ -218,8 +242,8 @@ def _init(init: Any, naming: Naming) -> tuple[list[Atom], dict[FuncTerm, float]]
 def _formula(expr: Any, naming: Naming, scope: frozenset[str], where: str) -> Formula:
     if isinstance(expr, And | Or | Not | Imply | Exists | Forall | Atom):
         return expr  # already llmpas's (solve_from_pddl)
-    if isinstance(expr, list):
-        expr = ("and", *expr)
+    if isinstance(expr, list):  # a list of facts, or a formula written as a list
+        expr = tuple(expr) if expr and isinstance(expr[0], str) else ("and", *expr)
     if not isinstance(expr, tuple) or not expr or not isinstance(expr[0], str):
         raise ModelError(f"{where}: {expr!r} is not a fact or a formula")
     head, rest = expr[0].lower(), expr[1:]
@@ -256,6 +280,22 @@ def _formula(expr: Any, naming: Naming, scope: frozenset[str], where: str) -> Fo
         return naming.name(a)
 
     return Atom(head, tuple(term(a) for a in rest))
+
+
+@dataclass(frozen=True)
+class _FluentValues:
+    """A stream with ``:fluents``: its ``fluents`` as PDDLStream gives them, tuples
+    ``('atpose', value, ...)`` (llmpas passes atoms of names)."""
+
+    fn: Any
+    values: Mapping[str, Any]
+
+    def __call__(self, *inputs: Any, fluents: Iterable[Any] = ()) -> Any:
+        facts = [
+            (a.predicate, *(self.values.get(x, x) for x in a.args)) if isinstance(a, Atom) else a
+            for a in fluents
+        ]
+        return self.fn(*inputs, fluents=facts)
 
 
 def _implementations(

@@ -250,17 +250,23 @@ class ExternalInfo:
         for key, value in self.options:
             if key in _USED and not (key == "opt_fn" and self.kind != "function"):
                 continue
-            if key in _SILENT and value in (None, True, never_defer):
+            if key == "verbose" or (key in _SILENT and value in (None, never_defer)):
                 continue
             notes.ignored(f"{self.label}.{key}", _WHY.get(key, "no meaning here"), name)
         return NativeInfo(**kwargs)
 
 
-def StreamInfo(**options: Any) -> ExternalInfo:  # noqa: N802 (PDDLStream's name)
+def StreamInfo(opt_gen_fn: Any = None, **options: Any) -> ExternalInfo:  # noqa: N802
+    """PDDLStream's ``StreamInfo`` (its first positional option: ``opt_gen_fn``)."""
+    if opt_gen_fn is not None:
+        options["opt_gen_fn"] = opt_gen_fn
     return ExternalInfo(tuple(sorted(options.items())), "stream")
 
 
-def FunctionInfo(**options: Any) -> ExternalInfo:  # noqa: N802
+def FunctionInfo(opt_fn: Any = None, **options: Any) -> ExternalInfo:  # noqa: N802
+    """PDDLStream's ``FunctionInfo`` (its first positional option: ``opt_fn``)."""
+    if opt_fn is not None:
+        options["opt_fn"] = opt_fn
     return ExternalInfo(tuple(sorted(options.items())), "function")
 
 
