@@ -37,6 +37,8 @@ def load_script() -> Iterator:
         spec = importlib.util.spec_from_file_location(f"pds_script_{name}", SCRIPTS / f"{name}.py")
         assert spec is not None and spec.loader is not None
         module = importlib.util.module_from_spec(spec)
+        sys.modules[spec.name] = module  # dataclasses look their module up
+        added.append(spec.name)
         spec.loader.exec_module(module)
         return Loaded(module, attempts)
 
