@@ -58,8 +58,12 @@ def test_wrappers_answer_in_llmpas_shape() -> None:
     assert outputs(from_fn(lambda x: (x + 1,)), 1) == [(2,)]
     assert outputs(from_list_fn(lambda x: [(x,), (x * 2,)]), 3) == [(3,), (6,)]
     assert outputs(from_gen_fn(lambda x: iter([(x,), None, (x + 1,)])), 1) == [(1,), None, (2,)]
-    assert outputs(from_list_gen_fn(lambda x: iter([[(x,)], [], [(x, ), (x,)]])), 5) == [
-        (5,), None, (5,), (5,)]
+    assert outputs(from_list_gen_fn(lambda x: iter([[(x,)], [], [(x,), (x,)]])), 5) == [
+        (5,),
+        None,
+        (5,),
+        (5,),
+    ]
     assert outputs(from_test(lambda x: [x]), 0) == [True]  # truthy values are True
     assert outputs(from_test(lambda x: np.bool_(False)), 0) == [False]
     it = from_sampler(lambda x: (x,)).implementation().fn(7)
@@ -87,8 +91,10 @@ def test_values_round_trip_by_identity_and_content() -> None:
     a, b = Thing(), Thing()
     arr = np.array([1.0, 2.0])
     plan, cost, cert = solve(
-        problem([("Obj", a), ("Obj", b), ("Obj", arr)],
-                And(("Done", a), ("Done", b), ("Done", np.array([1.0, 2.0])))),
+        problem(
+            [("Obj", a), ("Obj", b), ("Obj", arr)],
+            And(("Done", a), ("Done", b), ("Done", np.array([1.0, 2.0]))),
+        ),
         max_time=30,
     )
     assert plan is not None and cost == len(plan) == 3
@@ -113,8 +119,9 @@ def test_ignored_options_are_said_once(caplog) -> None:
     info = {"make": StreamInfo(negate=True, p_success=0.5)}
     with caplog.at_level(logging.WARNING):
         for _ in range(2):
-            solve(problem([("Obj", "x")], ("Done", "x")), stream_info=info, context=ctx,
-                  max_time=30)
+            solve(
+                problem([("Obj", "x")], ("Done", "x")), stream_info=info, context=ctx, max_time=30
+            )
     said = [r.getMessage() for r in caplog.records if "negate" in r.getMessage()]
     assert len(said) == 1 and "ignored" in said[0]
 
@@ -136,10 +143,25 @@ def test_options_map_to_llmpas_info() -> None:
         ({"constraints": PlanConstraints(skeletons=[[]])}, None, "skeletons"),
         ({}, problem([("Obj", "x")], Minimize(("Total",))), "'minimize'"),
         ({}, problem([("Obj", "x")], ("Done", "x"), "debug"), "debug streams"),
-        ({}, PDDLProblem(DOMAIN, {}, "(define (stream s) (:optimizer gurobi))", {}, [],
-                         ("Done", "x")), "':optimizer' is not supported"),
-        ({}, PDDLProblem("(define (domain t) (:requirements :durative-actions))", {}, None,
-                         {}, [], ("Done", "x")), "temporal planning"),
+        (
+            {},
+            PDDLProblem(
+                DOMAIN, {}, "(define (stream s) (:optimizer gurobi))", {}, [], ("Done", "x")
+            ),
+            "':optimizer' is not supported",
+        ),
+        (
+            {},
+            PDDLProblem(
+                "(define (domain t) (:requirements :durative-actions))",
+                {},
+                None,
+                {},
+                [],
+                ("Done", "x"),
+            ),
+            "temporal planning",
+        ),
     ],
 )
 def test_unsupported_constructs_are_one_line(kwargs, pds, words) -> None:

@@ -40,11 +40,16 @@ def test_a_script_in_a_package_imports_its_siblings(tmp_path, capsys) -> None:
     root = tmp_path / "repo"
     write(root / "examples" / "__init__.py", "")
     write(root / "examples" / "demo" / "__init__.py", "")
-    write(root / "examples" / "demo" / "helpers.py", """
+    write(
+        root / "examples" / "demo" / "helpers.py",
+        """
         def double(x):
             return (2 * x,)
-    """)
-    script = write(root / "examples" / "demo" / "run.py", """
+    """,
+    )
+    script = write(
+        root / "examples" / "demo" / "run.py",
+        """
         from examples.demo.helpers import double
         from pddlstream.algorithms.meta import solve
         from pddlstream.language.constants import PDDLProblem, print_solution
@@ -56,7 +61,8 @@ def test_a_script_in_a_package_imports_its_siblings(tmp_path, capsys) -> None:
         if __name__ == "__main__":
             print_solution(solve(PDDLProblem(DOMAIN, {}, STREAM, {"double": from_fn(double)},
                                              [("N", 21)], ("Done",)), max_time=30))
-    """)
+    """,
+    )
     assert main(["pddlstream", str(script)]) == 0
     assert "go 42" in capsys.readouterr().out
 
@@ -78,9 +84,14 @@ def test_refusals_and_failures_are_one_line(tmp_path, capsys) -> None:
         "from pddlstream.language.exogenous import FutureValue\n": (3, "not part of"),
         "from pddlstream.algorithms.meta import solve\n"
         "from pddlstream.language.constants import PDDLProblem\n"
-        "solve(PDDLProblem('(define (domain d))', {}, None, {}, [], ('P',)), algorithm='x')\n":
-            (3, "algorithm 'x' does not exist"),
-        "import pddlstream.utils\nraise RuntimeError('boom')\n": (1, "bad.py:2: RuntimeError: boom"),
+        "solve(PDDLProblem('(define (domain d))', {}, None, {}, [], ('P',)), algorithm='x')\n": (
+            3,
+            "algorithm 'x' does not exist",
+        ),
+        "import pddlstream.utils\nraise RuntimeError('boom')\n": (
+            1,
+            "bad.py:2: RuntimeError: boom",
+        ),
     }
     for text, (code, words) in cases.items():
         script = write(tmp_path / "bad.py", text)

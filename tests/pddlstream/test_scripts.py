@@ -10,10 +10,10 @@ from llmpas.language.bindings import cost, function, sampler, test
 from llmpas.language.domain import parse_domain
 from llmpas.language.problem import Problem
 from llmpas.language.streams import parse_streams
-from llmpas.planning import PlannerConfig, solve
 from llmpas.pddlstream.solving import Attempt, solution_of
 from llmpas.pddlstream.translate import Translation
 from llmpas.pddlstream.validate import validate
+from llmpas.planning import PlannerConfig, solve
 
 CONFIG = PlannerConfig(defer=False, max_time=60)
 
@@ -35,7 +35,7 @@ def steps(attempt: Attempt) -> list[tuple[str, tuple[str, ...]]]:
 def test_tamp2d_values_and_native_plan(load_script) -> None:
     s = load_script("tamp2d").module
     solution = s.solve(s.make_problem(), stream_info=s.STREAM_INFO, max_time=60)
-    plan, total, _ = solution
+    plan, _, _ = solution
     assert plan is not None
     # the plan carries the user's own values: the start poses are the very arrays given
     picks = [a for a in plan if a.name == "pick"]

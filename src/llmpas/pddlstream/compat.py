@@ -118,14 +118,21 @@ _TABLE: Mapping[str, tuple[tuple[types.ModuleType, ...], Mapping[str, Any]]] = {
     "pddlstream.language.external": ((wrappers,), {}),
     "pddlstream.language.object": (
         (),
-        {"SharedOptValue": SharedOptValue, "UniqueOptValue": UniqueOptValue,
-         "DebugValue": DebugValue},
+        {
+            "SharedOptValue": SharedOptValue,
+            "UniqueOptValue": UniqueOptValue,
+            "DebugValue": DebugValue,
+        },
     ),
     "pddlstream.language.optimizer": ((), {"OptimizerOutput": OptimizerOutput}),
     "pddlstream.language.temporal": (
         (),
-        {"retime_plan": retime_plan, "get_end": get_end, "compute_duration": compute_duration,
-         "DurativeAction": DurativeAction},
+        {
+            "retime_plan": retime_plan,
+            "get_end": get_end,
+            "compute_duration": compute_duration,
+            "DurativeAction": DurativeAction,
+        },
     ),
     "pddlstream.utils": ((utils, expressions), {}),
 }

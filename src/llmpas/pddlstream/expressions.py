@@ -65,46 +65,46 @@ class Solution(NamedTuple):
     certificate: Certificate
 
 
-def Output(*args: Any) -> tuple[Any, ...]:  # noqa: N802 (PDDLStream's name)
+def Output(*args: Any) -> tuple[Any, ...]:
     return tuple(args)
 
 
-def And(*expressions: Any) -> Any:  # noqa: N802
+def And(*expressions: Any) -> Any:
     """A conjunction; of one expression: that expression."""
     return expressions[0] if len(expressions) == 1 else (AND, *expressions)
 
 
-def Or(*expressions: Any) -> Any:  # noqa: N802
+def Or(*expressions: Any) -> Any:
     return expressions[0] if len(expressions) == 1 else (OR, *expressions)
 
 
-def Not(expression: Any) -> tuple[Any, ...]:  # noqa: N802
+def Not(expression: Any) -> tuple[Any, ...]:
     return (NOT, expression)
 
 
-def Imply(condition: Any, consequence: Any) -> tuple[Any, ...]:  # noqa: N802
+def Imply(condition: Any, consequence: Any) -> tuple[Any, ...]:
     return (IMPLY, condition, consequence)
 
 
-def Equal(left: Any, right: Any) -> tuple[Any, ...]:  # noqa: N802
+def Equal(left: Any, right: Any) -> tuple[Any, ...]:
     return (EQ, left, right)
 
 
-def Minimize(expression: Any) -> tuple[Any, ...]:  # noqa: N802
+def Minimize(expression: Any) -> tuple[Any, ...]:
     return (MINIMIZE, expression)
 
 
-def Exists(parameters: Iterable[str], expression: Any) -> Any:  # noqa: N802
+def Exists(parameters: Iterable[str], expression: Any) -> Any:
     params = tuple(parameters)
     return (EXISTS, params, expression) if params else expression
 
 
-def ForAll(parameters: Iterable[str], expression: Any) -> Any:  # noqa: N802
+def ForAll(parameters: Iterable[str], expression: Any) -> Any:
     params = tuple(parameters)
     return (FORALL, params, expression) if params else expression
 
 
-def Fact(predicate: str, args: Iterable[Any]) -> tuple[Any, ...]:  # noqa: N802
+def Fact(predicate: str, args: Iterable[Any]) -> tuple[Any, ...]:
     return (predicate, *args)
 
 

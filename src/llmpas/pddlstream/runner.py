@@ -46,7 +46,10 @@ class _AliasFinder(importlib.abc.MetaPathFinder, importlib.abc.Loader):
         self.modules = modules
 
     def find_spec(
-        self, fullname: str, path: Sequence[str] | None = None, target: types.ModuleType | None = None
+        self,
+        fullname: str,
+        path: Sequence[str] | None = None,
+        target: types.ModuleType | None = None,
     ) -> importlib.machinery.ModuleSpec | None:
         if fullname in self.modules:
             is_pkg = hasattr(self.modules[fullname], "__path__")
@@ -122,8 +125,10 @@ def run_script(script: str, argv: Sequence[str] = (), validate_plans: bool = Tru
     run = Run(script)
 
     def record(attempt: Attempt) -> None:
-        v = validate(attempt) if validate_plans and attempt.result.solved else Validation(
-            False, "not validated" if attempt.result.solved else "no plan"
+        v = (
+            validate(attempt)
+            if validate_plans and attempt.result.solved
+            else Validation(False, "not validated" if attempt.result.solved else "no plan")
         )
         run.checked.append(Checked(attempt, v))
 
@@ -193,7 +198,8 @@ def _message(e: BaseException) -> str:
 def _where(e: BaseException, root: Path) -> str:
     """``file:line: `` of the deepest frame of the script's own code in ``e``'s traceback."""
     frames = [
-        f for f in traceback.extract_tb(e.__traceback__)
+        f
+        for f in traceback.extract_tb(e.__traceback__)
         if _inside(f.filename, root) and "llmpas" not in Path(f.filename).parts
     ]
     if not frames:

@@ -18,7 +18,8 @@ def solve_from_pddl(
     """(plan, cost) of a PDDL problem text; (None, INF) when none is found. Objects are the
     ones the init mentions (untyped)."""
     domain = parse_domain(*pddl_text(domain_pddl, "domain"))
-    pf = parse_problem_text(*pddl_text(problem_pddl, "problem"), domain)
+    text, filename = pddl_text(problem_pddl, "problem")
+    pf = parse_problem_text(text, domain, filename)
     init: list[Any] = [(a.predicate, *a.args) for a in pf.init]
     init += [("=", (t.name, *t.args), v) for t, v in pf.costs.items()]
     problem = PDDLProblem(domain_pddl, {}, None, {}, init, pf.goal)

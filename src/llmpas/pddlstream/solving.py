@@ -20,11 +20,11 @@ from typing import Any
 
 from llmpas.errors import PlannerError
 from llmpas.language.logic import Atom
-from llmpas.planning import PlannerConfig, PlanResult, PlanStatus
-from llmpas.planning import solve as plan
 from llmpas.pddlstream.expressions import INF, Action, Certificate, PDDLProblem, Solution
 from llmpas.pddlstream.translate import Translation, Unsupported, translate
 from llmpas.pddlstream.wrappers import Notes
+from llmpas.planning import PlannerConfig, PlanResult, PlanStatus
+from llmpas.planning import solve as plan
 
 log = logging.getLogger(__name__)
 
@@ -160,7 +160,9 @@ def _check_constraints(constraints: Any, notes: Notes) -> None:
     if constraints is None:
         return
     if getattr(constraints, "skeletons", None) is not None:
-        raise Unsupported("solve: PlanConstraints(skeletons=...) (plan skeletons) are not supported")
+        raise Unsupported(
+            "solve: PlanConstraints(skeletons=...) (plan skeletons) are not supported"
+        )
     if getattr(constraints, "max_cost", INF) < INF:
         notes.ignored("PlanConstraints(max_cost=...)", "no bound on the plan's cost")
 
@@ -198,7 +200,10 @@ def create_parser(default_algorithm: str = DEFAULT_ALGORITHM) -> argparse.Argume
     """The parser PDDLStream's example scripts extend: ``-a/--algorithm`` and ``-u/--unit``."""
     parser = argparse.ArgumentParser()
     parser.add_argument(
-        "-a", "--algorithm", default=default_algorithm, choices=ALGORITHMS,
+        "-a",
+        "--algorithm",
+        default=default_algorithm,
+        choices=ALGORITHMS,
         help="the PDDLStream algorithm (adaptive, binding, focused: llmpas's focused planner)",
     )
     parser.add_argument("-u", "--unit", action="store_true", help="uses unit costs")

@@ -114,8 +114,10 @@ def translate(
     domain = _domain(domain_pddl)
     if unit_costs:
         domain = dataclasses.replace(
-            domain, actions=tuple(dataclasses.replace(a, effects=_costless(a.effects))
-                                  for a in domain.actions)
+            domain,
+            actions=tuple(
+                dataclasses.replace(a, effects=_costless(a.effects)) for a in domain.actions
+            ),
         )
     spec = _streams(stream_pddl)
     constants = {c.name for c in domain.constants}
@@ -269,8 +271,10 @@ def _formula(expr: Any, naming: Naming, scope: frozenset[str], where: str) -> Fo
         body = sub(rest[1], scope | {p.name for p in params})
         return Exists(params, body) if head == "exists" else Forall(params, body)
     if head in ("minimize", "maximize"):
-        raise Unsupported(f"{where}: '{head}' objectives are not supported (costs come from the "
-                          "domain's total-cost)")
+        raise Unsupported(
+            f"{where}: '{head}' objectives are not supported (costs come from the "
+            "domain's total-cost)"
+        )
 
     def term(a: Any) -> str:
         if is_parameter(a):
@@ -309,8 +313,9 @@ def _implementations(
     if stream_map is None:
         stream_map = {}
     if not isinstance(stream_map, Mapping):
-        raise BindingError(f"stream_map: expected a dict name -> implementation, got "
-                           f"{type(stream_map).__name__}")
+        raise BindingError(
+            f"stream_map: expected a dict name -> implementation, got {type(stream_map).__name__}"
+        )
     given = {str(k).lower(): v for k, v in stream_map.items()}
     infos = {str(k).lower(): v for k, v in dict(stream_info).items()}
     out: dict[str, Implementation] = {}

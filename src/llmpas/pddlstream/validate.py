@@ -21,8 +21,8 @@ from llmpas.language.bindings import BoundStream
 from llmpas.language.logic import Atom, FuncTerm
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics, replay
-from llmpas.planning.result import Plan
 from llmpas.pddlstream.solving import Attempt
+from llmpas.planning.result import Plan
 
 MAX_ROUNDS = 20  # rounds of recomputing tests and rules (each adds facts; a fixpoint is early)
 
@@ -69,9 +69,7 @@ def validate(attempt: Attempt) -> Validation:
 
 def _sampled(problem: Problem, plan: Plan) -> set[Atom]:
     """The plan's certified facts of predicates that a stream with outputs certifies."""
-    sampled = {
-        a.predicate for s in problem.streams.streams if s.outputs for a in s.certified
-    }
+    sampled = {a.predicate for s in problem.streams.streams if s.outputs for a in s.certified}
     return {a for a in plan.certified if a.predicate in sampled}
 
 
@@ -96,8 +94,9 @@ def recomputed(problem: Problem, facts: set[Atom], values: Mapping[str, Any]) ->
                     if not holds:
                         new.add(Atom(s.name, args))
                 elif holds:
-                    new |= {Atom(a.predicate, tuple(env.get(t, t) for t in a.args))
-                            for a in s.certified}
+                    new |= {
+                        Atom(a.predicate, tuple(env.get(t, t) for t in a.args)) for a in s.certified
+                    }
         if not new - known:
             break
         out |= new
@@ -144,7 +143,7 @@ class _Costs(Mapping[FuncTerm, float]):
 
     def __init__(self, problem: Problem, values: Mapping[str, Any]) -> None:
         self.problem = problem
-        self.values = values
+        self.named = values
         self.cache: dict[FuncTerm, float] = {}
 
     def __getitem__(self, term: FuncTerm) -> float:
@@ -154,7 +153,7 @@ class _Costs(Mapping[FuncTerm, float]):
             bound = self.problem.bound_functions.get(term.name)
             if bound is None:
                 raise KeyError(term)
-            self.cache[term] = bound.value(tuple(self.values.get(a, a) for a in term.args))
+            self.cache[term] = bound.value(tuple(self.named.get(a, a) for a in term.args))
         return self.cache[term]
 
     def __contains__(self, term: object) -> bool:

@@ -87,9 +87,7 @@ class _Outputs:
             return
         if self.shape is Shape.FN:
             yield result
-        elif self.shape is Shape.LIST_FN:
-            yield from result
-        elif self.shape is Shape.GEN:
+        elif self.shape is Shape.LIST_FN or self.shape is Shape.GEN:
             yield from result
         else:  # LIST_GEN
             for batch in result:
@@ -223,6 +221,32 @@ _WHY = {
 }
 
 
+OPT_DEFAULT = 1.0  # llmpas's optimistic cost of a function whose inputs are not computed yet
+
+
+@dataclass(frozen=True)
+class _Optimistic:
+    """A ``FunctionInfo(opt_fn)``: llmpas calls it with None for inputs not computed yet, where
+    PDDLStream passes optimistic objects (with ``.values``); when it fails on such an input, the
+    cost is llmpas's default lower bound (said once)."""
+
+    fn: Callable[..., Any]
+    notes: Notes
+    name: str
+
+    def __call__(self, *inputs: Any) -> Any:
+        try:
+            return self.fn(*inputs)
+        except Exception:
+            if all(x is not None for x in inputs):
+                raise
+            self.notes.ignored(
+                f"FunctionInfo(opt_fn) of {self.name}",
+                f"it failed on an input not computed yet: {OPT_DEFAULT:g} is used",
+            )
+            return OPT_DEFAULT
+
+
 @dataclass(frozen=True)
 class ExternalInfo:
     """Options of one stream or function (PDDLStream's ``StreamInfo``/``FunctionInfo``)."""
@@ -246,7 +270,7 @@ class ExternalInfo:
         if opts.get("overhead") is not None:
             kwargs["overhead"] = float(opts["overhead"])
         if opts.get("opt_fn") is not None and self.kind == "function":
-            kwargs["opt_fn"] = opts["opt_fn"]
+            kwargs["opt_fn"] = _Optimistic(opts["opt_fn"], notes, name)
         for key, value in self.options:
             if key in _USED and not (key == "opt_fn" and self.kind != "function"):
                 continue
@@ -256,14 +280,14 @@ class ExternalInfo:
         return NativeInfo(**kwargs)
 
 
-def StreamInfo(opt_gen_fn: Any = None, **options: Any) -> ExternalInfo:  # noqa: N802
+def StreamInfo(opt_gen_fn: Any = None, **options: Any) -> ExternalInfo:
     """PDDLStream's ``StreamInfo`` (its first positional option: ``opt_gen_fn``)."""
     if opt_gen_fn is not None:
         options["opt_gen_fn"] = opt_gen_fn
     return ExternalInfo(tuple(sorted(options.items())), "stream")
 
 
-def FunctionInfo(opt_fn: Any = None, **options: Any) -> ExternalInfo:  # noqa: N802
+def FunctionInfo(opt_fn: Any = None, **options: Any) -> ExternalInfo:
     """PDDLStream's ``FunctionInfo`` (its first positional option: ``opt_fn``)."""
     if opt_fn is not None:
         options["opt_fn"] = opt_fn

@@ -59,8 +59,14 @@ def stackable(upper: Block, lower: Block) -> bool:
 
 def make_problem() -> PDDLProblem:
     # c on a (too big for it; allowed at the start), b on the table: build a tower a-b-c
-    init = [("HandEmpty",), ("OnTable", A), ("On", C, A), ("Clear", C), ("OnTable", B),
-            ("Clear", B)]
+    init = [
+        ("HandEmpty",),
+        ("OnTable", A),
+        ("On", C, A),
+        ("Clear", C),
+        ("OnTable", B),
+        ("Clear", B),
+    ]
     init += [("Block", x) for x in (A, B, C)]
     goal = And(("On", A, B), ("On", B, C))
     stream_map = {"grips": from_list_fn(grips), "stackable": from_test(stackable)}
@@ -69,8 +75,9 @@ def make_problem() -> PDDLProblem:
 
 def main() -> None:
     args = create_parser().parse_args()
-    print_solution(solve(make_problem(), algorithm=args.algorithm, unit_costs=args.unit,
-                         max_time=60))
+    print_solution(
+        solve(make_problem(), algorithm=args.algorithm, unit_costs=args.unit, max_time=60)
+    )
 
 
 if __name__ == "__main__":

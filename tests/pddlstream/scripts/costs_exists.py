@@ -31,8 +31,13 @@ STREAMS = """
 """
 
 COORDS = {"depot": (0, 0), "north": (0, 10), "east": (10, 0), "dock": (10, 10), "far": (40, 40)}
-ROADS = [("depot", "north"), ("depot", "east"), ("north", "dock"), ("east", "dock"),
-         ("far", "dock")]
+ROADS = [
+    ("depot", "north"),
+    ("depot", "east"),
+    ("north", "dock"),
+    ("east", "dock"),
+    ("far", "dock"),
+]
 
 
 def length(a: str, b: str) -> float:
@@ -55,8 +60,15 @@ STREAM_INFO = {"Length": FunctionInfo(opt_fn=lambda a, b: 10.0)}
 
 def main() -> None:
     args = create_parser().parse_args()
-    print_solution(solve(make_problem(), algorithm=args.algorithm, unit_costs=args.unit,
-                         stream_info=STREAM_INFO, max_time=60))
+    print_solution(
+        solve(
+            make_problem(),
+            algorithm=args.algorithm,
+            unit_costs=args.unit,
+            stream_info=STREAM_INFO,
+            max_time=60,
+        )
+    )
 
 
 if __name__ == "__main__":

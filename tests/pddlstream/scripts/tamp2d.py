@@ -4,9 +4,8 @@ regions, inverse kinematics, a collision test and a distance cost (numpy values)
 from __future__ import annotations
 
 import numpy as np
-
 from pddlstream.algorithms.meta import create_parser, solve
-from pddlstream.language.constants import And, Equal, PDDLProblem, TOTAL_COST, print_solution
+from pddlstream.language.constants import TOTAL_COST, And, Equal, PDDLProblem, print_solution
 from pddlstream.language.function import FunctionInfo
 from pddlstream.language.generator import from_fn, from_gen_fn, from_test
 from pddlstream.language.stream import StreamInfo
@@ -71,8 +70,13 @@ def distance(q1: np.ndarray, q2: np.ndarray) -> float:
 
 
 def make_problem(goal_blocks: tuple[str, ...] = ("A", "B")) -> PDDLProblem:
-    init = [("HandEmpty",), ("Conf", HOME), ("AtConf", HOME), Equal(("Cost",), 1),
-            Equal((TOTAL_COST,), 0)]
+    init = [
+        ("HandEmpty",),
+        ("Conf", HOME),
+        ("AtConf", HOME),
+        Equal(("Cost",), 1),
+        Equal((TOTAL_COST,), 0),
+    ]
     init += [("Region", r) for r in REGIONS.values()]
     for b, p in START.items():
         init += [("Block", b), ("Pose", b, p), ("AtPose", b, p)]
@@ -95,8 +99,13 @@ STREAM_INFO = {
 def main() -> None:
     parser = create_parser()
     args = parser.parse_args()
-    solution = solve(make_problem(), algorithm=args.algorithm, unit_costs=args.unit,
-                     stream_info=STREAM_INFO, max_time=60)
+    solution = solve(
+        make_problem(),
+        algorithm=args.algorithm,
+        unit_costs=args.unit,
+        stream_info=STREAM_INFO,
+        max_time=60,
+    )
     print_solution(solution)
 
 
