@@ -37,7 +37,7 @@ def test_a_missing_last_step_misses_the_goal(load_script) -> None:
 
 
 def test_tests_are_recomputed_not_trusted(load_script) -> None:
-    s, attempt = solved(load_script)
+    _, attempt = solved(load_script)
     problem = attempt.translation.problem
     # the planner's claims of CFree are not used: with the last place's pose moved onto where
     # the other block was placed before, the recomputed test fails and the place is unsafe
