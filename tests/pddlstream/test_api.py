@@ -178,3 +178,20 @@ def test_numeric_init_and_unknown_goal_objects() -> None:
         translate(problem([Equal(("Cost",), "one")], ("Done", "x")))
     with pytest.raises(InputError, match="not bound by an Exists"):
         translate(problem([("Obj", "x")], ("Done", "?free")))
+
+
+def test_solve_from_pddl_plans_a_plain_pddl_problem() -> None:
+    from pathlib import Path
+
+    from llmpas.language.domain import read_domain
+    from llmpas.language.problem import read_problem
+    from llmpas.language.semantics import Semantics, replay
+    from llmpas.pddlstream import read, solve_from_pddl
+
+    folder = Path(__file__).parents[2] / "src" / "llmpas" / "examples" / "blocksworld"
+    plan, cost = solve_from_pddl(read(folder / "domain.pddl"), read(folder / "problem.pddl"))
+    assert plan is not None and cost == len(plan)
+    problem = read_problem(read_domain(folder / "domain.pddl"), folder / "problem.pddl")
+    sem = Semantics(problem.domain, problem.object_types)
+    steps = [(a.name, tuple(str(x).lower() for x in a.args)) for a in plan]
+    assert replay(sem, problem.init, steps, problem.goal).valid

@@ -104,7 +104,7 @@ _TABLE: Mapping[str, tuple[tuple[types.ModuleType, ...], Mapping[str, Any]]] = {
     "pddlstream.algorithms.incremental": ((solving,), {}),
     "pddlstream.algorithms.serialized": ((solving,), {}),
     "pddlstream.algorithms.search": ((search,), {}),
-    "pddlstream.algorithms.common": ((), {"SOLUTIONS": []}),
+    "pddlstream.algorithms.common": ((), {}),  # SOLUTIONS: a fresh list per run
     "pddlstream.algorithms.constraints": ((), {"PlanConstraints": PlanConstraints, "WILD": WILD}),
     "pddlstream.algorithms.downward": (
         (),
@@ -150,6 +150,8 @@ def build_modules(context: solving.SolveContext) -> dict[str, types.ModuleType]:
         for source in sources:
             names.update({k: v for k, v in vars(source).items() if _public(k, v)})
         names.update(extra)
+        if name == "pddlstream.algorithms.common":
+            names["SOLUTIONS"] = []
         for solver in _SOLVERS:
             if solver in names:
                 names[solver] = _bound(names[solver], context)

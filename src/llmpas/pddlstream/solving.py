@@ -45,10 +45,9 @@ PLANNERS = {
     "ff-lazy": f"lazy_greedy([ff({_AX})])",
     "add-lazy": f"lazy_greedy([add({_AX})])",
     "goal-lazy": "lazy_greedy([goalcount()])",
+    **{f"ff-wastar{w}": f"eager_wastar([ff({_AX})], w={w})" for w in (1, 2, 3, 5)},
+    **{f"max-wastar{w}": f"eager_wastar([hmax({_AX})], w={w})" for w in (1, 2, 3, 5)},
 }
-for _w in (1, 2, 3, 5):
-    PLANNERS[f"ff-wastar{_w}"] = f"eager_wastar([ff({_AX})], w={_w})"
-    PLANNERS[f"max-wastar{_w}"] = f"eager_wastar([hmax({_AX})], w={_w})"
 
 # solve's options with no meaning here that are never worth a word
 _QUIET = frozenset({"verbose", "debug", "visualize", "max_planner_time", "clean", "temp_dir"})
