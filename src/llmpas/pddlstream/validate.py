@@ -48,7 +48,8 @@ def validate(attempt: Attempt) -> Validation:
     problem = attempt.translation.problem
     values = {**problem.objects, **{k: v for k, v in plan.objects.items() if v is not None}}
     facts = set(problem.init) | _sampled(problem, plan)
-    facts |= recomputed(problem, facts, values)
+    raised: list[str] = []
+    facts |= recomputed(problem, facts, values, raised)
     names = set(values) | {t for a in facts for t in a.args}
     costs = _Costs(problem, values)
     sem = Semantics(problem.domain, dict.fromkeys(names, "object"), costs)
@@ -58,7 +59,8 @@ def validate(attempt: Attempt) -> Validation:
     except Exception as e:  # a function that raises or answers no number
         return Validation(False, f"replay: {type(e).__name__}: {e}")
     if not result.valid:
-        return Validation(False, f"replay: {result.message}")
+        why = f" ({len(raised)} test call(s) raised, first: {raised[0]})" if raised else ""
+        return Validation(False, f"replay: {result.message}{why}")
     cost = float(len(steps)) if attempt.unit_costs else result.cost
     if not math.isclose(cost, attempt.solution.cost, rel_tol=1e-3, abs_tol=1e-2):
         return Validation(
@@ -73,9 +75,12 @@ def _sampled(problem: Problem, plan: Plan) -> set[Atom]:
     return {a for a in plan.certified if a.predicate in sampled}
 
 
-def recomputed(problem: Problem, facts: set[Atom], values: Mapping[str, Any]) -> set[Atom]:
+def recomputed(
+    problem: Problem, facts: set[Atom], values: Mapping[str, Any], raised: list[str]
+) -> set[Atom]:
     """Facts of tests, external predicates and rules, computed on ``values`` until nothing
-    new holds (at most :data:`MAX_ROUNDS` rounds)."""
+    new holds (at most :data:`MAX_ROUNDS` rounds). A call that raises certifies nothing (the
+    planner may never have needed that instance); ``raised`` gets what it raised."""
     out: set[Atom] = set()
     done: set[tuple[str, tuple[str, ...]]] = set()
     tests = [b for b in problem.bound_streams.values() if not b.schema.outputs]
@@ -89,7 +94,11 @@ def recomputed(problem: Problem, facts: set[Atom], values: Mapping[str, Any]) ->
                 if (s.name, args) in done:
                     continue
                 done.add((s.name, args))
-                holds = _holds(bound, args, values)
+                try:
+                    holds = _holds(bound, args, values)
+                except Exception as e:  # the user's code, on an instance it may not expect
+                    raised.append(f"{s.name}({' '.join(args)}): {type(e).__name__}: {e}")
+                    continue
                 if s.is_predicate:  # the implementation says P; its test certifies not P
                     if not holds:
                         new.add(Atom(s.name, args))
