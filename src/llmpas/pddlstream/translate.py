@@ -45,6 +45,8 @@ from llmpas.language.streams import EMPTY_STREAMS, StreamSpec, parse_streams
 from llmpas.pddlstream.expressions import DEBUG_MAPS, PDDLProblem, is_parameter
 from llmpas.pddlstream.wrappers import ExternalInfo, Notes, Procedure, Shape
 
+MAX_OUTPUTS = 100  # outputs one stream instance may give while planning (llmpas: 10)
+
 
 class Unsupported(InputError):
     """A PDDLStream construct llmpas does not plan: one line naming it (exit status 3)."""
@@ -322,8 +324,14 @@ def _implementations(
     for s in spec.streams:
         if s.is_rule or s.name not in given:
             continue
-        impl = _stream_impl(s.name, given[s.name], s.is_predicate)
-        out[s.name] = _with_info(impl, infos.get(s.name), notes, s.name)
+        impl = _with_info(
+            _stream_impl(s.name, given[s.name], s.is_predicate), infos.get(s.name), notes, s.name
+        )
+        if s.outputs and impl.info.max_outputs < MAX_OUTPUTS:  # PDDLStream has no such bound
+            impl = dataclasses.replace(
+                impl, info=dataclasses.replace(impl.info, max_outputs=MAX_OUTPUTS)
+            )
+        out[s.name] = impl
     for f in spec.functions:
         if f.name not in given:
             continue
