@@ -195,3 +195,29 @@ def test_solve_from_pddl_plans_a_plain_pddl_problem() -> None:
     sem = Semantics(problem.domain, problem.object_types)
     steps = [(a.name, tuple(str(x).lower() for x in a.args)) for a in plan]
     assert replay(sem, problem.init, steps, problem.goal).valid
+
+
+def test_fluents_reach_the_stream_as_value_tuples() -> None:
+    seen: list = []
+    pos = np.array([1.0, 2.0])
+
+    def make(o, fluents=()):
+        seen.extend(fluents)
+        return (o,)
+
+    streams = STREAMS.replace(":outputs (?v)", ":fluents (Obj) :outputs (?v)")
+    pds = PDDLProblem(DOMAIN, {}, streams, {"make": from_fn(make)}, [("Obj", pos)], ("Done", pos))
+    plan, _, _ = solve(pds, max_time=30)
+    assert plan is not None
+    assert seen and all(f[0] == "obj" and f[1] is pos for f in seen)
+
+
+def test_wild_outputs_are_refused_in_one_line() -> None:
+    from llmpas.errors import PlannerError
+    from llmpas.pddlstream.wrappers import WildOutput
+
+    pds = problem(
+        [("Obj", "x")], ("Done", "x"), {"make": from_list_fn(lambda o: WildOutput(values=[(o,)]))}
+    )
+    with pytest.raises(PlannerError, match=r"WildOutput .* is not supported"):
+        solve(pds, max_time=30)

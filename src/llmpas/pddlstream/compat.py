@@ -51,11 +51,6 @@ class OptimizerOutput(NamedTuple):
     infeasible: Any = ()
 
 
-class WildOutput(NamedTuple):
-    values: Any = ()
-    facts: Any = ()
-
-
 class SharedOptValue(NamedTuple):
     stream: Any
     inputs: Any
@@ -113,7 +108,7 @@ _TABLE: Mapping[str, tuple[tuple[types.ModuleType, ...], Mapping[str, Any]]] = {
     "pddlstream.algorithms.visualization": ((), {"VISUALIZATIONS_DIR": "visualizations/"}),
     "pddlstream.language.constants": ((expressions,), {}),
     "pddlstream.language.generator": ((wrappers,), {}),
-    "pddlstream.language.stream": ((wrappers,), {"WildOutput": WildOutput}),
+    "pddlstream.language.stream": ((wrappers,), {}),
     "pddlstream.language.function": ((wrappers,), {}),
     "pddlstream.language.external": ((wrappers,), {}),
     "pddlstream.language.object": (

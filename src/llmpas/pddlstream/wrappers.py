@@ -54,21 +54,34 @@ class Procedure:
             return Implementation(self.fn, Kind.FUNCTION)
         return Implementation(_Outputs(self.fn, self.shape), Kind.SAMPLER)
 
-    def __call__(self, *inputs: Any) -> Iterator[list[tuple[Any, ...]]]:
+    def __call__(self, *inputs: Any, **kwargs: Any) -> Iterator[list[tuple[Any, ...]]]:
         """PDDLStream's protocol: a generator of lists of output tuples."""
         if self.shape is Shape.TEST:
-            yield [()] if self.fn(*inputs) else []
+            yield [()] if self.fn(*inputs, **kwargs) else []
             return
-        for out in _Outputs(self.fn, self.shape)(*inputs):
+        for out in _Outputs(self.fn, self.shape)(*inputs, **kwargs):
             yield [] if out is None else [tuple(out)]
+
+
+class WildOutput(NamedTuple):
+    """PDDLStream's outputs with extra certified facts: refused when a stream returns one."""
+
+    values: Any = ()
+    facts: Any = ()
+
+
+def _no_wild(result: Any) -> Any:
+    if isinstance(result, WildOutput):
+        raise TypeError("WildOutput (outputs with extra facts) is not supported by llmpas")
+    return result
 
 
 @dataclass(frozen=True)
 class _Truth:
     fn: Callable[..., Any]
 
-    def __call__(self, *inputs: Any) -> bool:
-        return bool(self.fn(*inputs))
+    def __call__(self, *inputs: Any, **kwargs: Any) -> bool:  # kwargs: fluents
+        return bool(self.fn(*inputs, **kwargs))
 
 
 @dataclass(frozen=True)
@@ -78,11 +91,11 @@ class _Outputs:
     fn: Callable[..., Any]
     shape: Shape
 
-    def __call__(self, *inputs: Any) -> Iterator[Any]:
+    def __call__(self, *inputs: Any, **kwargs: Any) -> Iterator[Any]:  # kwargs: fluents
         if self.shape is Shape.SAMPLER:
             while True:
-                yield self.fn(*inputs)
-        result = self.fn(*inputs)
+                yield _no_wild(self.fn(*inputs, **kwargs))
+        result = _no_wild(self.fn(*inputs, **kwargs))
         if result is None:
             return
         if self.shape is Shape.FN:
@@ -91,7 +104,7 @@ class _Outputs:
             yield from result
         else:  # LIST_GEN
             for batch in result:
-                if not batch:
+                if not _no_wild(batch):
                     yield None
                 else:
                     yield from batch
