@@ -369,6 +369,64 @@ def _one_line_errors(command: Handler) -> Handler:
     return handler
 
 
+# ------------------------------------------------------------------------------- pddlstream
+
+
+def _cmd_pddlstream(args: argparse.Namespace, console: Console) -> int:
+    from llmpas.pddlstream.runner import run_script
+
+    run = run_script(args.script, args.args, validate_plans=not args.no_validate)
+    for i, c in enumerate(run.checked, 1):
+        r, v = c.attempt.result, c.validation
+        if r.plan is None:
+            what = f"[red]{r.status.value}[/]: {escape(r.message)}"
+        else:
+            valid = "[green]valid[/]" if v.valid else f"[red]invalid[/]: {escape(v.message)}"
+            what = (
+                f"[green]solved[/]: {len(r.plan)} actions, cost {c.attempt.solution.cost:g}; "
+                f"replay: {valid}"
+            )
+        console.print(
+            f"[bold]llmpas pddlstream[/] solve #{i}: {what}; {c.attempt.cpu_seconds:.2f} s CPU",
+            highlight=False,
+        )
+    if args.summary:
+        summary = {
+            "script": args.script,
+            "args": list(args.args),
+            "exit_code": run.exit_code,
+            "error": run.error,
+            "solves": [
+                {
+                    "status": c.attempt.result.status.value,
+                    "length": None if c.attempt.result.plan is None else len(c.attempt.result.plan),
+                    "cost": c.attempt.solution.cost if c.attempt.result.solved else None,
+                    "valid": c.validation.valid,
+                    "validation": c.validation.message,
+                    "cpu_seconds": c.attempt.cpu_seconds,
+                }
+                for c in run.checked
+            ],
+        }
+        atomic_write(Path(args.summary), json.dumps(summary, indent=2) + "\n")
+    if run.error:
+        raise CliError(run.error, ExitCode(run.exit_code) if run.exit_code in set(ExitCode)
+                       else ExitCode.FAILED)
+    return run.exit_code
+
+
+def _add_pddlstream(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    p = sub.add_parser(
+        "pddlstream",
+        help="run an unchanged PDDLStream script on llmpas's planner (docs/pddlstream.md)",
+    )
+    p.add_argument("script", help="the script (.py)")
+    p.add_argument("args", nargs=argparse.REMAINDER, help="the script's own arguments")
+    p.add_argument("--no-validate", action="store_true", help="do not replay the plans")
+    p.add_argument("--summary", help="write what each solve call did to this JSON file")
+    p.set_defaults(handler=_cmd_pddlstream)
+
+
 # ------------------------------------------------------------------- worlds: execute / bt / run
 
 
@@ -757,6 +815,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_doctor(sub)
     _add_bench(sub)
     _add_report(sub)
+    _add_pddlstream(sub)
     return parser
 
 

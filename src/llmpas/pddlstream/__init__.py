@@ -1,0 +1,101 @@
+"""PDDLStream's public Python API on llmpas's planner (written for llmpas; PDDLStream itself,
+GPL-3, was read for its semantics only).
+
+``from llmpas.pddlstream import PDDLProblem, from_gen_fn, solve, ...`` in your own code, or run an
+unchanged PDDLStream script with ``llmpas pddlstream script.py ARGS`` (its ``import
+pddlstream....`` then resolve here). See docs/pddlstream.md.
+"""
+
+from llmpas.pddlstream.expressions import (
+    INF,
+    TOTAL_COST,
+    Action,
+    And,
+    Certificate,
+    Equal,
+    Exists,
+    ForAll,
+    Imply,
+    Minimize,
+    Not,
+    Or,
+    Output,
+    PDDLProblem,
+    Solution,
+    print_solution,
+    str_from_object,
+)
+from llmpas.pddlstream.search import solve_from_pddl
+from llmpas.pddlstream.solving import (
+    create_parser,
+    solve,
+    solve_adaptive,
+    solve_binding,
+    solve_focused,
+    solve_incremental,
+)
+from llmpas.pddlstream.translate import Translation, Unsupported, translate
+from llmpas.pddlstream.utils import Profiler, get_file_path, read
+from llmpas.pddlstream.wrappers import (
+    FunctionInfo,
+    StreamInfo,
+    empty_gen,
+    fn_from_constant,
+    from_constant,
+    from_fn,
+    from_gen,
+    from_gen_fn,
+    from_list_fn,
+    from_list_gen_fn,
+    from_sampler,
+    from_test,
+    negate_test,
+    universe_test,
+)
+
+__all__ = [
+    "INF",
+    "TOTAL_COST",
+    "Action",
+    "And",
+    "Certificate",
+    "Equal",
+    "Exists",
+    "ForAll",
+    "FunctionInfo",
+    "Imply",
+    "Minimize",
+    "Not",
+    "Or",
+    "Output",
+    "PDDLProblem",
+    "Profiler",
+    "Solution",
+    "StreamInfo",
+    "Translation",
+    "Unsupported",
+    "create_parser",
+    "empty_gen",
+    "fn_from_constant",
+    "from_constant",
+    "from_fn",
+    "from_gen",
+    "from_gen_fn",
+    "from_list_fn",
+    "from_list_gen_fn",
+    "from_sampler",
+    "from_test",
+    "get_file_path",
+    "negate_test",
+    "print_solution",
+    "read",
+    "solve",
+    "solve_adaptive",
+    "solve_binding",
+    "solve_focused",
+    "solve_from_pddl",
+    "solve_incremental",
+    "str_from_object",
+    "translate",
+    "universe_test",
+]

@@ -1,0 +1,324 @@
+"""PDDLStream's stream wrappers (``from_gen_fn``, ``from_fn``, ``from_test``, ...) and stream
+options (``StreamInfo``, ``FunctionInfo``), mapped onto llmpas's bound implementations.
+
+A wrapper is a :class:`Procedure`: the user's function and how it answers (one output tuple,
+a list of them, a generator of them, a bool). :meth:`Procedure.implementation` gives the
+:class:`~llmpas.language.bindings.Implementation` llmpas's planner calls. A bare callable in a
+``stream_map`` means, as in PDDLStream, a generator of *lists* of output tuples for a
+``:stream``, and the function itself for a ``:function`` or a ``:predicate``.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
+from typing import Any, NamedTuple
+
+from llmpas.language.bindings import Implementation, Kind
+from llmpas.language.bindings import StreamInfo as NativeInfo
+
+log = logging.getLogger(__name__)
+
+DEBUG = "debug"
+SHARED_DEBUG = "shared_debug"
+
+
+class Shape(enum.Enum):
+    """How a wrapped function answers."""
+
+    FN = "fn"  # one output tuple, or None
+    LIST_FN = "list_fn"  # a list of output tuples, or None
+    GEN = "gen"  # an iterable of output tuples (None: nothing this time)
+    LIST_GEN = "list_gen"  # an iterable of lists of output tuples ([]: nothing this time)
+    SAMPLER = "sampler"  # one output tuple (or None) per call, called again for more
+    TEST = "test"  # a truth value
+
+
+@dataclass(frozen=True)
+class Procedure:
+    """A user's function wrapped the way PDDLStream's ``from_*`` says it answers."""
+
+    fn: Callable[..., Any]
+    shape: Shape
+
+    def __post_init__(self) -> None:
+        if not callable(self.fn):
+            raise TypeError(f"from_{self.shape.value}: {self.fn!r} is not callable")
+
+    def implementation(self) -> Implementation:
+        if self.shape is Shape.TEST:
+            return Implementation(_Truth(self.fn), Kind.TEST)
+        if self.shape is Shape.FN:
+            return Implementation(self.fn, Kind.FUNCTION)
+        return Implementation(_Outputs(self.fn, self.shape), Kind.SAMPLER)
+
+    def __call__(self, *inputs: Any, **kwargs: Any) -> Iterator[list[tuple[Any, ...]]]:
+        """PDDLStream's protocol: a generator of lists of output tuples."""
+        if self.shape is Shape.TEST:
+            yield [()] if self.fn(*inputs, **kwargs) else []
+            return
+        for out in _Outputs(self.fn, self.shape)(*inputs, **kwargs):
+            yield [] if out is None else [tuple(out)]
+
+
+class WildOutput(NamedTuple):
+    """PDDLStream's outputs with extra certified facts: refused when a stream returns one."""
+
+    values: Any = ()
+    facts: Any = ()
+
+
+def _no_wild(result: Any) -> Any:
+    if isinstance(result, WildOutput):
+        raise TypeError("WildOutput (outputs with extra facts) is not supported by llmpas")
+    return result
+
+
+@dataclass(frozen=True)
+class _Truth:
+    fn: Callable[..., Any]
+
+    def __call__(self, *inputs: Any, **kwargs: Any) -> bool:  # kwargs: fluents
+        return bool(self.fn(*inputs, **kwargs))
+
+
+@dataclass(frozen=True)
+class _Outputs:
+    """A sampler in llmpas's shape: yields output tuples, or None for "nothing this time"."""
+
+    fn: Callable[..., Any]
+    shape: Shape
+
+    def __call__(self, *inputs: Any, **kwargs: Any) -> Iterator[Any]:  # kwargs: fluents
+        if self.shape is Shape.SAMPLER:
+            while True:
+                yield _no_wild(self.fn(*inputs, **kwargs))
+        result = _no_wild(self.fn(*inputs, **kwargs))
+        if result is None:
+            return
+        if self.shape is Shape.FN:
+            yield result
+        elif self.shape is Shape.LIST_FN or self.shape is Shape.GEN:
+            yield from result
+        else:  # LIST_GEN
+            for batch in result:
+                if not _no_wild(batch):
+                    yield None
+                else:
+                    yield from batch
+
+
+def from_fn(fn: Callable[..., Any]) -> Procedure:
+    return Procedure(fn, Shape.FN)
+
+
+def from_list_fn(fn: Callable[..., Any]) -> Procedure:
+    return Procedure(fn, Shape.LIST_FN)
+
+
+def from_gen_fn(fn: Callable[..., Iterable[Any]]) -> Procedure:
+    return Procedure(fn, Shape.GEN)
+
+
+def from_list_gen_fn(fn: Callable[..., Iterable[Any]]) -> Procedure:
+    return Procedure(fn, Shape.LIST_GEN)
+
+
+def from_sampler(fn: Callable[..., Any]) -> Procedure:
+    return Procedure(fn, Shape.SAMPLER)
+
+
+def from_test(fn: Callable[..., Any]) -> Procedure:
+    return Procedure(fn, Shape.TEST)
+
+
+def from_gen(generator: Iterable[Any]) -> Procedure:
+    """One generator shared by every call (as PDDLStream's ``from_gen``)."""
+    it = iter(generator)
+    return from_gen_fn(lambda *_: it)
+
+
+@dataclass(frozen=True)
+class _Constant:
+    value: Any
+
+    def __call__(self, *_: Any) -> Any:
+        return self.value
+
+
+def fn_from_constant(value: Any) -> Callable[..., Any]:
+    return _Constant(value)
+
+
+def from_constant(value: Any) -> Procedure:
+    return from_fn(fn_from_constant(value))
+
+
+@dataclass(frozen=True)
+class _Negated:
+    test: Callable[..., Any]
+
+    def __call__(self, *inputs: Any) -> bool:
+        return not self.test(*inputs)
+
+
+def negate_test(test: Callable[..., Any]) -> Callable[..., bool]:
+    return _Negated(test)
+
+
+def _nothing(*_: Any) -> Iterator[Any]:
+    return iter(())
+
+
+universe_test = from_test(fn_from_constant(True))
+empty_test = from_test(fn_from_constant(False))
+
+
+def empty_gen() -> Procedure:
+    return from_gen_fn(_nothing)
+
+
+def outputs_from_boolean(value: Any) -> tuple[tuple[()], ...]:
+    return ((),) if value else ()
+
+
+def accelerate_list_gen_fn(list_gen_fn: Callable[..., Any], *_: Any, **__: Any) -> Any:
+    """PDDLStream batches outputs; here each output is taken as it comes."""
+    return list_gen_fn
+
+
+# ------------------------------------------------------------------------------------ options
+
+
+def never_defer(*_: Any, **__: Any) -> bool:
+    return False
+
+
+def defer_unique(*_: Any, **__: Any) -> bool:
+    return True
+
+
+def defer_shared(*_: Any, **__: Any) -> bool:
+    return True
+
+
+def get_defer_any_unbound(unique: bool = False) -> Callable[..., bool]:
+    return defer_unique if unique else defer_shared
+
+
+def get_defer_all_unbound(inputs: str = "", unique: bool = False) -> Callable[..., bool]:
+    return defer_unique if unique else defer_shared
+
+
+class PartialInputs(NamedTuple):
+    """PDDLStream's optimistic-output generator; llmpas makes its own placeholders."""
+
+    inputs: str = ""
+    unique: bool = False
+    num: int = 1
+
+
+# what each option does here; options not listed are accepted and said to be ignored
+_USED = {
+    "p_success": "the probability of success (llmpas p_success)",
+    "overhead": "the expected cost of one call (llmpas overhead)",
+    "eager": "eager=True: called on real inputs before each search (llmpas p_success=0)",
+    "opt_fn": "a cost's optimistic value (llmpas opt_fn)",
+}
+_SILENT = {"verbose", "defer_fn", "opt_gen_fn"}  # their default values mean nothing here
+_WHY = {
+    "defer_fn": "every stream a plan needs is evaluated before solve returns it",
+    "opt_gen_fn": "llmpas makes its own placeholder outputs",
+}
+
+
+OPT_DEFAULT = 1.0  # llmpas's optimistic cost of a function whose inputs are not computed yet
+
+
+@dataclass(frozen=True)
+class _Optimistic:
+    """A ``FunctionInfo(opt_fn)``: llmpas calls it with None for inputs not computed yet, where
+    PDDLStream passes optimistic objects (with ``.values``); when it fails on such an input, the
+    cost is llmpas's default lower bound (said once)."""
+
+    fn: Callable[..., Any]
+    notes: Notes
+    name: str
+
+    def __call__(self, *inputs: Any) -> Any:
+        try:
+            return self.fn(*inputs)
+        except Exception:
+            if all(x is not None for x in inputs):
+                raise
+            self.notes.ignored(
+                f"FunctionInfo(opt_fn) of {self.name}",
+                f"it failed on an input not computed yet: {OPT_DEFAULT:g} is used",
+            )
+            return OPT_DEFAULT
+
+
+@dataclass(frozen=True)
+class ExternalInfo:
+    """Options of one stream or function (PDDLStream's ``StreamInfo``/``FunctionInfo``)."""
+
+    options: tuple[tuple[str, Any], ...] = ()
+    kind: str = "stream"
+
+    @property
+    def label(self) -> str:
+        return "StreamInfo" if self.kind == "stream" else "FunctionInfo"
+
+    def native(self, notes: Notes, name: str) -> NativeInfo:
+        """llmpas's options; every option that means nothing here is noted (once per run)."""
+        opts = dict(self.options)
+        p_success = opts.get("p_success")
+        kwargs: dict[str, Any] = {}
+        if opts.get("eager"):
+            p_success = 0.0
+        if p_success is not None:
+            kwargs["p_success"] = max(0.0, min(1.0, float(p_success)))
+        if opts.get("overhead") is not None:
+            kwargs["overhead"] = float(opts["overhead"])
+        if opts.get("opt_fn") is not None and self.kind == "function":
+            kwargs["opt_fn"] = _Optimistic(opts["opt_fn"], notes, name)
+        for key, value in self.options:
+            if key in _USED and not (key == "opt_fn" and self.kind != "function"):
+                continue
+            if key == "verbose" or (key in _SILENT and value in (None, never_defer)):
+                continue
+            notes.ignored(f"{self.label}.{key}", _WHY.get(key, "no meaning here"), name)
+        return NativeInfo(**kwargs)
+
+
+def StreamInfo(opt_gen_fn: Any = None, **options: Any) -> ExternalInfo:
+    """PDDLStream's ``StreamInfo`` (its first positional option: ``opt_gen_fn``)."""
+    if opt_gen_fn is not None:
+        options["opt_gen_fn"] = opt_gen_fn
+    return ExternalInfo(tuple(sorted(options.items())), "stream")
+
+
+def FunctionInfo(opt_fn: Any = None, **options: Any) -> ExternalInfo:
+    """PDDLStream's ``FunctionInfo`` (its first positional option: ``opt_fn``)."""
+    if opt_fn is not None:
+        options["opt_fn"] = opt_fn
+    return ExternalInfo(tuple(sorted(options.items())), "function")
+
+
+PredicateInfo = FunctionInfo
+
+
+@dataclass
+class Notes:
+    """What a run accepted but ignores, each said once (a warning naming it)."""
+
+    said: set[str] = field(default_factory=set)
+
+    def ignored(self, option: str, why: str, where: str = "") -> None:
+        if option in self.said:
+            return
+        self.said.add(option)
+        at = f" (first for {where})" if where else ""
+        log.warning("pddlstream: %s is accepted and ignored%s: %s", option, at, why)
