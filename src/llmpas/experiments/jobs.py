@@ -79,7 +79,7 @@ def llm_resources(spec: str) -> dict[str, float]:
     """The resources of a job using the ``--llm`` backend ``spec``: one :data:`LLM_RESOURCE`
     when it talks to a model (a local model or an endpoint), none for the oracle or a replay."""
     kind = spec.partition(":")[0]
-    return {} if kind in ("oracle", "replay") else {LLM_RESOURCE: 1.0}
+    return {} if kind in ("oracle", "replan", "replay") else {LLM_RESOURCE: 1.0}
 
 
 @cache
@@ -96,8 +96,8 @@ def add_llm_argument(p: argparse.ArgumentParser, oracle: str = "oracle") -> None
     p.add_argument(
         "--llm",
         default="llama-cpp",
-        help=f"{oracle} | replay:DIR | openai:MODEL[@BASE_URL] | llama-cpp[:PATH] "
-        "(default: the offline model)",
+        help=f"{oracle} | replan (no LLM: the task restated) | replay:DIR | "
+        "openai:MODEL[@BASE_URL] | llama-cpp[:PATH] (default: the offline model)",
     )
 
 
