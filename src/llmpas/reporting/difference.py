@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 from llmpas.reporting.record import RunRecord, get_str
@@ -123,7 +122,3 @@ def _verdict(
 
 __all__ = ["Baseline", "Difference", "Outcome", "baseline_of", "difference", "outcomes"]
 
-
-def relative(folder: Path, base: Path) -> str:
-    """``base`` relative to ``folder`` (for ``about.json``), POSIX-style."""
-    return Path(base).resolve().relative_to(Path(folder).resolve()).as_posix()
