@@ -56,6 +56,19 @@ def test_the_offline_models_recorded_answers_find_the_cube() -> None:
     assert all(r.proposal.first_look for r in result.rounds if r.proposal)
 
 
+def test_in_the_papers_protocol_the_offline_model_does_not_finish() -> None:
+    """The same model and first look with the loop's assists off (recorded with `llmpas run
+    object-loss --protocol paper --record`): it restates the task, which is planned as given
+    and cannot be while the cube is lost."""
+    from llmpas.reasoning.assists import Assists
+
+    llm = ReplayBackend(CASSETTES, mode="replay")
+    result = run_loop("object-loss", llm, LoopConfig(options=QUIET, assists=Assists.none()))
+    assert not result.success
+    assert _goals(result) == ["(on cube bowl)"]
+    assert len(result.rounds[0].proposal.exchanges) == 2  # type: ignore[union-attr]
+
+
 @pytest.mark.slow
 def test_the_page_names_the_decisive_goals_beside_the_replan_only_run(tmp_path: Path) -> None:
     out = tmp_path / "run"
