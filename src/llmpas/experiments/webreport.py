@@ -1,7 +1,7 @@
 """``llmpas bench report``: how big the main job's web report is and how long it takes to build
 (targets: under 5 MB, under 2 s). A benchmark, not a test: it runs the main job once
-(``llmpas run object-loss --llm oracle --with-replan``, or reads a given run folder) and builds its page
-``--repeats`` times, reporting the median and the largest build time."""
+(``llmpas run object-loss --llm oracle --with-replan``, or reads a given run folder) and builds
+its page ``--repeats`` times, reporting the median and the largest build time."""
 
 from __future__ import annotations
 
