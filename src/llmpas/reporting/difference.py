@@ -121,4 +121,3 @@ def _verdict(
 
 
 __all__ = ["Baseline", "Difference", "Outcome", "baseline_of", "difference", "outcomes"]
-
