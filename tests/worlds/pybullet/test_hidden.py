@@ -106,3 +106,32 @@ def test_the_scenario_keeps_its_tables_apart() -> None:
     scene = scenarios()["object-loss"].scene
     assert [t.name for t in scene.tables] == ["table1", "table2", "table3", "table4"]
     assert replace(scene).tables == scene.tables
+
+
+METHODS_CASSETTES = CASSETTES.parent / "qwen1.5b-pybullet-methods"
+
+
+@pytest.mark.parametrize(
+    ("method", "votes", "goals"),
+    [
+        ("flp", 3, ["(scanned table3)"]),  # 3 checked answers: one named table3, the others
+        # restated the task (rejected); one consultation instead of two
+        pytest.param(
+            "flp-multi", 1, ["(scanned table2)", "(scanned table3)"], marks=pytest.mark.slow
+        ),
+        pytest.param(
+            "flp-hypotheses", 1, ["(scanned table2)", "(scanned table3)"], marks=pytest.mark.slow
+        ),
+    ],
+)
+def test_the_offline_models_answers_with_each_method_replay(
+    method: str, votes: int, goals: list[str]
+) -> None:
+    """Recorded once with `llmpas run object-loss --method M [--votes K] --record`."""
+    from llmpas.reasoning.methods import MethodConfig
+
+    llm = ReplayBackend(METHODS_CASSETTES, mode="replay")
+    config = LoopConfig(method=MethodConfig(method, votes=votes), options=QUIET)
+    result = run_loop("object-loss", llm, config)
+    assert result.success, result.message
+    assert _goals(result) == goals
