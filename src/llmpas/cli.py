@@ -644,7 +644,7 @@ def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     _add_world_option(p)
     p.add_argument("--gui", action="store_true", help="open the simulator window (PyBullet)")
     p.add_argument("--no-llm", action="store_true", help="plan and execute once, no reasoning")
-    add_llm_argument(p)
+    add_llm_argument(p, replan=True)
     p.add_argument("--method", default="flp", choices=METHODS)
     p.add_argument("--decoding", default="grammar", choices=("grammar", "schema", "none"))
     p.add_argument("--rounds", type=positive_int, default=3, help="LLM consultations at most")

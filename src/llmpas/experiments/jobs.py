@@ -91,13 +91,17 @@ def backend(spec: str, record: str | None = None) -> Any:
     return make_backend(spec, record)
 
 
-def add_llm_argument(p: argparse.ArgumentParser, oracle: str = "oracle") -> None:
-    """The ``--llm`` option every experiment takes (``oracle`` says what the oracle is there)."""
+def add_llm_argument(
+    p: argparse.ArgumentParser, oracle: str = "oracle", replan: bool = False
+) -> None:
+    """The ``--llm`` option every experiment takes (``oracle`` says what the oracle is there;
+    ``replan``: the no-LLM baseline is offered too)."""
+    baseline = "replan (no LLM: the task restated) | " if replan else ""
     p.add_argument(
         "--llm",
         default="llama-cpp",
-        help=f"{oracle} | replan (no LLM: the task restated) | replay:DIR | "
-        "openai:MODEL[@BASE_URL] | llama-cpp[:PATH] (default: the offline model)",
+        help=f"{oracle} | {baseline}replay:DIR | openai:MODEL[@BASE_URL] | llama-cpp[:PATH] "
+        "(default: the offline model)",
     )
 
 

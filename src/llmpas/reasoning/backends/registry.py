@@ -14,7 +14,7 @@ from typing import Any
 
 from llmpas.reasoning.llm import LLM
 
-SPECS = "oracle | replan | replay:DIR | openai:MODEL[@BASE_URL] | llama-cpp[:PATH]"
+SPECS = "oracle | replay:DIR | openai:MODEL[@BASE_URL] | llama-cpp[:PATH]"
 Maker = Callable[[str, str | None], Any]  # (argument after the colon, record folder) -> backend
 
 
