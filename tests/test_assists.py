@@ -3,36 +3,12 @@ syntax only; each assist, switched on alone, does what it says. Test doubles kno
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
-import py_trees
 import pytest
 
 from llmpas.experiments.worlds import LoopConfig, run_loop
 from llmpas.reasoning.assists import PROTOCOLS, Assists, ablation, parse_assists
-from llmpas.reasoning.llm import Request, Response
 from llmpas.reasoning.methods import MethodConfig
-
-
-@pytest.fixture(autouse=True)
-def clean_blackboard() -> Iterator[None]:
-    py_trees.blackboard.Blackboard.clear()
-    yield
-    py_trees.blackboard.Blackboard.clear()
-
-
-class Scripted:
-    """Always the same answer (a test double: it knows nothing)."""
-
-    name = "scripted"
-
-    def __init__(self, answer: str) -> None:
-        self.answer = answer
-        self.requests: list[Request] = []
-
-    def complete(self, request: Request) -> Response:
-        self.requests.append(request)
-        return Response(self.answer, model="scripted")
+from tests.test_system import Scripted, clean_blackboard  # noqa: F401 (autouse fixture)
 
 
 def _config(assists: Assists, method: str = "one-step", rounds: int = 3) -> LoopConfig:
