@@ -594,12 +594,13 @@ def _add_execute(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> No
     show.set_defaults(handler=_cmd_bt)
 
 
-def _llm(spec: str, record: str | None, world: str = "household") -> Any:
-    """``oracle`` | ``replay:DIR`` | ``openai:MODEL[@BASE_URL]`` | ``llama-cpp[:PATH]``."""
+def _llm(spec: str, record: str | None, world: str = "household", method: str = "flp") -> Any:
+    """``oracle`` | ``replan`` | ``replay:DIR`` | ``openai:MODEL[@BASE_URL]`` |
+    ``llama-cpp[:PATH]``."""
     from llmpas.experiments.worlds import llm_for
 
     try:
-        return llm_for(spec, record, world)
+        return llm_for(spec, record, world, method)
     except LlmpasError:
         raise
     except ValueError as e:
@@ -608,6 +609,7 @@ def _llm(spec: str, record: str | None, world: str = "household") -> Any:
 
 def _cmd_run(args: argparse.Namespace, console: Console) -> int:
     from llmpas.experiments.worlds import load_world
+    from llmpas.reasoning.assists import parse_assists
     from llmpas.reasoning.llm import LLMError
     from llmpas.reasoning.methods import MethodConfig
     from llmpas.system import LoopSettings, run, run_once
@@ -616,12 +618,17 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
     world = load_world(name)
     scenario = _scenario_arg(name, args.scenario)
     try:
-        method = MethodConfig(method=args.method, decoding=args.decoding)
-        settings = LoopSettings(method=method, max_rounds=args.rounds, deadline=args.deadline)
+        method = MethodConfig(method=args.method, decoding=args.decoding, votes=args.votes)
+        assists = parse_assists(args.assists or args.protocol)
+        settings = LoopSettings(
+            method=method, max_rounds=args.rounds, deadline=args.deadline, assists=assists
+        )
         options = _options(args)
     except ValueError as e:
         raise CliError(str(e)) from None
-    llm = None if args.no_llm else _llm(args.llm, args.record, name)
+    if args.with_replan and (args.no_llm or not args.out):
+        raise CliError("--with-replan needs --out and an LLM (not --no-llm)")
+    llm = None if args.no_llm else _llm(args.llm, args.record, name, args.method)
     what = "no LLM" if llm is None else f"{args.llm} ({args.method})"
     status = escape(f"running {args.scenario} in {world.title} with {what} ...")
     kept = f" (the rounds so far are in {args.out})" if args.out else ""
@@ -636,12 +643,41 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
     except KeyboardInterrupt:
         raise CliError(f"interrupted{kept}", ExitCode.INTERRUPTED) from None
     _print_rounds(result, console)
+    about: dict[str, Any] = {"world": world.title, "task": result.rounds[0].goal}
+    if args.out and assists.label != "assisted":
+        about["assists"] = assists.label
+    if args.with_replan:
+        about["baseline"] = _replan_run(args, world, scenario, settings, options, console)
     if args.out:
         console.print(f"wrote the run folder {args.out} (start with loop.md)")
-        _web_report(args, console, world=world.title, task=result.rounds[0].goal)
+        _web_report(args, console, **about)
     verdict = "[bold green]task done[/]" if result.success else "[bold red]not done[/]"
     console.print(f"{verdict}: {escape(printable(result.message, keep_newlines=False))}")
     return 0 if result.success else 1
+
+
+def _replan_run(
+    args: argparse.Namespace,
+    world: Any,
+    scenario: Any,
+    settings: Any,
+    options: Any,
+    console: Console,
+) -> str:
+    """The replan-only run of the same scenario and seed (no LLM: the task restated), in
+    ``OUT/replan-only``; its folder relative to ``OUT`` (for the page's link)."""
+    from llmpas.reporting.page import build_report
+    from llmpas.system import run
+
+    folder = Path(args.out) / "replan-only"
+    replan = _llm("replan", None, _world_name(args), args.method)
+    status = escape(f"running {args.scenario} again with replan (no LLM) ...")
+    with console.status(status), _naming(scenario):
+        base = run(world, scenario, replan, settings, options, folder)
+    verdict = "task done" if base.success else "not done"
+    console.print(f"replan only: {verdict}: {escape(printable(base.message, keep_newlines=False))}")
+    build_report(folder, {"scenario": args.scenario, "world": world.title, "llm": "replan"})
+    return "replan-only"
 
 
 def _print_rounds(result: Any, console: Console) -> None:
@@ -675,6 +711,7 @@ def _add_report(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
 
 def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     from llmpas.experiments.jobs import add_llm_argument
+    from llmpas.reasoning.assists import PROTOCOLS, Assists
     from llmpas.reasoning.methods import METHODS
 
     p = sub.add_parser("run", help="the closed loop: plan, execute, reason about anomalies")
@@ -686,10 +723,35 @@ def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     _add_world_option(p)
     p.add_argument("--gui", action="store_true", help="open the simulator window (PyBullet)")
     p.add_argument("--no-llm", action="store_true", help="plan and execute once, no reasoning")
-    add_llm_argument(p)
+    add_llm_argument(p, replan=True)
     p.add_argument("--method", default="flp", choices=METHODS)
     p.add_argument("--decoding", default="grammar", choices=("grammar", "schema", "none"))
     p.add_argument("--rounds", type=positive_int, default=3, help="LLM consultations at most")
+    p.add_argument(
+        "--protocol",
+        default="assisted",
+        choices=tuple(PROTOCOLS),
+        help="paper: the LLM's goals are parsed and syntax-checked only (no search rewriting, "
+        "grammar pruning, list of unsearched places, validation or repair); assisted: all",
+    )
+    p.add_argument(
+        "--assists",
+        help="exactly these assists, comma-separated (overrides --protocol): "
+        + ", ".join(Assists.names()),
+    )
+    p.add_argument(
+        "--votes",
+        type=positive_int,
+        default=1,
+        help="self-consistency: answers sampled per consultation, each checked, the most "
+        "agreed valid one taken (1: off)",
+    )
+    p.add_argument(
+        "--with-replan",
+        action="store_true",
+        help="also run the same scenario and seed with replan (no LLM) into OUT/replan-only; "
+        "the web page compares the two",
+    )
     p.add_argument(
         "--deadline",
         type=positive_float,

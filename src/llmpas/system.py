@@ -35,6 +35,7 @@ from llmpas.language.logic import And, Atom, Formula, Not, atoms_of
 from llmpas.language.problem import Problem, parse_formula
 from llmpas.language.semantics import Semantics
 from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, solve
+from llmpas.reasoning.assists import Assists
 from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal
 from llmpas.reasoning.llm import LLM, LLMError, Request, Response
 from llmpas.reasoning.methods import MethodConfig, Proposal, propose, rejected
@@ -51,6 +52,7 @@ class LoopSettings:
     method: MethodConfig = field(default_factory=MethodConfig)
     max_rounds: int = 3  # LLM consultations at most
     deadline: float | None = None  # seconds for the whole loop (checked between its steps)
+    assists: Assists = field(default_factory=Assists)  # what the loop does for the LLM
 
     def __post_init__(self) -> None:
         if self.max_rounds < 0:
@@ -209,8 +211,11 @@ class _Loop:
     on_round: OnRound | None = None
     clock: Callable[[], float] = time.monotonic
     timings: dict[str, float] = field(default_factory=dict)
+    assists: Assists = field(default_factory=Assists)
 
     def __post_init__(self) -> None:
+        if not self.assists.repair:
+            self.method = replace(self.method, repairs=0)
         self.sem = Semantics(self.session.domain, {}, {}, strict_costs=False)
         self.search = self.session.search
         self.start = self.clock()
@@ -252,8 +257,15 @@ class _Loop:
                 return self.stop_at_deadline()
             sit = self.situation(report)
             t = time.perf_counter()
+            a = self.assists
             proposal = propose(
-                sit, backend, self.session.vocabulary, self.method, self.check, self.exhausted()
+                sit,
+                backend,
+                self.session.vocabulary,
+                self.method,
+                self.check if a.validation or a.search_rewrite else None,
+                self.exhausted() if a.grammar_pruning else (),
+                prune=a.grammar_pruning,
             )
             self.llm_time += time.perf_counter() - t
             self.rounds[-1] = replace(rnd, proposal=proposal)
@@ -378,7 +390,11 @@ class _Loop:
         """Already-true goals are dropped; repeats of exhausted searches and of attempts that
         did not help, and unreachable goals, are rejected with feedback."""
         raw = parse.goals
-        parse = self.drop_true(self.as_searches(parse))
+        if self.assists.search_rewrite:
+            parse = self.as_searches(parse)
+        if not self.assists.validation:
+            return parse
+        parse = self.drop_true(parse)
         if not parse.ok:
             return replace(parse, rejected=raw)
         self.refresh()
@@ -537,7 +553,8 @@ class _Loop:
 
     def not_searched(self, obj: str, regions: set[str]) -> str:
         rest = [p for p in self.search.places() if p not in regions]
-        return f" (not searched yet: {', '.join(rest)})" if rest else ""
+        listed = rest and self.assists.unsearched_list
+        return f" (not searched yet: {', '.join(rest)})" if listed else ""
 
     def history(self) -> str:
         lines = []
@@ -547,7 +564,8 @@ class _Loop:
                 continue
             lines.append(f"- {obj} was not found on {', '.join(sorted(regions))}")
             rest = [p for p in self.search.places() if p not in regions]
-            lines.append(f"- places not searched yet for {obj}: {', '.join(rest)}")
+            if self.assists.unsearched_list:
+                lines.append(f"- places not searched yet for {obj}: {', '.join(rest)}")
         lines += [f"- goals {' '.join(sorted(t))} did not help" for t in self.tried]
         return "\n".join(lines)
 
@@ -573,6 +591,7 @@ def close_loop(
         deadline=settings.deadline,
         on_round=on_round,
         clock=clock,
+        assists=settings.assists,
     )
     try:
         backend = llm if isinstance(llm, LLM) else llm(session)

@@ -103,8 +103,9 @@ def test_markdown_has_the_table_ii_layout() -> None:
     # the lift over replan: per type and overall; only methods have one
     assert "| Method | Object Loss | Action Blocking | State Change | all |" in text
     assert "| flp | +0.00 | +0.00 | +0.00 | +0.00 |" in text
-    assert f"{replan} 0.67 | 0.67 | 0.00 | — |" in text  # all: SR, ASPL, 1st eff., lift
-    assert "| flp | 0.67 | 1.00 | 0.50 | +0.00 |" in text
+    # all: SR, its 95 % (Wilson) interval over the pooled samples, ASPL, 1st eff., lift
+    assert f"{replan} 0.67 | 0.21–0.94 | 0.67 | 0.00 | — |" in text
+    assert "| flp | 0.67 | 0.21–0.94 | 1.00 | 0.50 | +0.00 |" in text
 
 
 def test_lift_is_the_sr_difference_with_the_replan_row_per_type_and_overall() -> None:

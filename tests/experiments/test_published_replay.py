@@ -38,3 +38,19 @@ def test_the_published_offline_model_runs_replay_exactly(
     replayed = _rows(tmp_path / "prompting_samples.csv", (method,), tasks)
     published = _rows(PUBLISHED, (method,), tasks)
     assert replayed and replayed == published
+
+
+PROTOCOLS = ROOT / "docs" / "results" / "prompting-qwen1.5b-protocols-ol_samples.csv"
+
+
+def test_the_papers_protocol_rows_replay_exactly(tmp_path: Path) -> None:
+    """The same model in the paper's protocol (recorded in the run that measured both
+    protocols): its answers replay to the same goals and verdicts."""
+    tasks = ("ol01-table2", "ol05-drawer3")
+    argv = ["bench", "prompting", "--llm", f"replay:{CASSETTES}", "--methods", "one-step"]
+    argv += ["--no-oracle", "--no-replan", "--samples", "1", "--protocol", "paper"]
+    assert main([*argv, "--out", str(tmp_path), "--tasks", *tasks]) == 0
+    replayed = _rows(tmp_path / "prompting_samples.csv", ("one-step [paper]",), tasks)
+    published = _rows(PROTOCOLS, ("one-step [paper]",), tasks)
+    assert replayed and replayed == published
+    assert all(r["success"] == "False" for r in replayed.values())

@@ -79,7 +79,7 @@ def llm_resources(spec: str) -> dict[str, float]:
     """The resources of a job using the ``--llm`` backend ``spec``: one :data:`LLM_RESOURCE`
     when it talks to a model (a local model or an endpoint), none for the oracle or a replay."""
     kind = spec.partition(":")[0]
-    return {} if kind in ("oracle", "replay") else {LLM_RESOURCE: 1.0}
+    return {} if kind in ("oracle", "replan", "replay") else {LLM_RESOURCE: 1.0}
 
 
 @cache
@@ -91,12 +91,16 @@ def backend(spec: str, record: str | None = None) -> Any:
     return make_backend(spec, record)
 
 
-def add_llm_argument(p: argparse.ArgumentParser, oracle: str = "oracle") -> None:
-    """The ``--llm`` option every experiment takes (``oracle`` says what the oracle is there)."""
+def add_llm_argument(
+    p: argparse.ArgumentParser, oracle: str = "oracle", replan: bool = False
+) -> None:
+    """The ``--llm`` option every experiment takes (``oracle`` says what the oracle is there;
+    ``replan``: the no-LLM baseline is offered too)."""
+    baseline = "replan (no LLM: the task restated) | " if replan else ""
     p.add_argument(
         "--llm",
         default="llama-cpp",
-        help=f"{oracle} | replay:DIR | openai:MODEL[@BASE_URL] | llama-cpp[:PATH] "
+        help=f"{oracle} | {baseline}replay:DIR | openai:MODEL[@BASE_URL] | llama-cpp[:PATH] "
         "(default: the offline model)",
     )
 

@@ -76,8 +76,9 @@ from llmpas.experiments.suite import (
 from llmpas.experiments.worlds import LoopConfig, oracle_for
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning import PlannerConfig
+from llmpas.reasoning.assists import PROTOCOLS, Assists, ablation, parse_assists
 from llmpas.reasoning.llm import LLM
-from llmpas.reasoning.methods import DECODINGS, METHODS, MethodConfig
+from llmpas.reasoning.methods import DECODINGS, METHODS, PAPER_METHODS, MethodConfig
 from llmpas.system import LLMFor, LoopResult
 from llmpas.worlds.api import RunOptions
 
@@ -121,8 +122,17 @@ class PromptingConfig:
     out_dir: Path = Path("results/prompting")
     executor: ExecutorSpec = field(default_factory=ExecutorSpec)
     keep_runs: bool = False  # each run's folder (loop.json, index.html) under out_dir/runs
+    protocols: tuple[str, ...] = ("assisted",)  # paper | assisted | assists joined by "+"
+    ablation: bool = False  # also: no assist, each assist alone, all (the methods' rows)
+    votes: int = 1  # self-consistency: sampled answers per consultation (1: off)
 
     def __post_init__(self) -> None:
+        if not self.protocols:
+            raise ValueError("protocols: give at least one (paper, assisted)")
+        for spec in self.protocols:
+            parse_assists(spec)  # ValueError naming an unknown assist
+        if not 1 <= self.votes <= 16:
+            raise ValueError(f"votes must be in [1, 16], got {self.votes}")
         bad = [m for m in self.methods if m not in METHODS]
         if bad:
             raise ValueError(f"unknown method {bad[0]!r}; methods: {', '.join(METHODS)}")
@@ -166,6 +176,7 @@ class Payload:
     loop: LoopConfig
     task_data: bytes | None = None  # the task file's content (None: read ``task_file``)
     keep: str | None = None  # the folder this run is kept in
+    row: str = ""  # the table's row ("": ``method``)
 
 
 # ------------------------------------------------------------------------------- backends
@@ -180,10 +191,14 @@ def build_llm(spec: str, record: str | None = None) -> LLM | LLMFor:
     return llm
 
 
-def loop_config(config: PromptingConfig, method: str, sample: int) -> LoopConfig:
-    """The closed loop of one sample: the method's config with the sample's LLM seed."""
+def loop_config(
+    config: PromptingConfig, method: str, sample: int, assists: Assists | None = None
+) -> LoopConfig:
+    """The closed loop of one sample: the method's config with the sample's LLM seed, and the
+    protocol's assists (default: all)."""
     is_oracle = method in (ORACLE, REPLAN)  # deterministic rows: the oracle's path
     return LoopConfig(
+        assists=assists or Assists(),
         method=MethodConfig(
             method="flp" if is_oracle else method,
             decoding=config.decoding,
@@ -191,6 +206,7 @@ def loop_config(config: PromptingConfig, method: str, sample: int) -> LoopConfig
             temperature=0.0 if is_oracle else config.temperature,
             seed=config.seed + sample,
             max_tokens=config.max_tokens,
+            votes=1 if is_oracle else config.votes,
         ),
         max_rounds=config.max_rounds,
         options=RunOptions(planner=PlannerConfig(max_time=config.max_time)),
@@ -210,7 +226,15 @@ def run_job(payload: Payload) -> dict[str, Any]:
     )
     j = judge(task, llm, payload.loop, _keeper(payload, task) if payload.keep else None)
     log.info("%s %s #%d: %s", payload.method, task.name, payload.sample, j.verdict.value)
-    return {"method": payload.method, "sample": payload.sample, "l_gt": task.l_gt, **j.to_json()}
+    row = payload.row or payload.method
+    protocol = payload.loop.assists.label
+    return {
+        "method": row,
+        "protocol": protocol,
+        "sample": payload.sample,
+        "l_gt": task.l_gt,
+        **j.to_json(),
+    }
 
 
 def _keeper(payload: Payload, task: SuiteTask) -> Callable[[LoopResult], object]:
@@ -254,6 +278,8 @@ class Cell:
     false_done: int  # samples the loop believed done but the truth disagreed
     first_effective: float | None = None  # share of first proposals that are effective
     lift: float | None = None  # SR minus the replan row's SR (None: no replan row, a baseline)
+    sr_low: float = 0.0  # 95 % Wilson interval of the pooled samples' success rate
+    sr_high: float = 1.0
 
 
 def _cell(method: str, category: str, records: Sequence[dict[str, Any]]) -> Cell:
@@ -274,6 +300,7 @@ def _cell(method: str, category: str, records: Sequence[dict[str, Any]]) -> Cell
     answers = sum(int(r["answers"]) for r in records)
     count = len(records)
     judged = [bool(r["first_effective"]) for r in records if r.get("first_effective") is not None]
+    low, high = wilson(sum(bool(r["success"]) for r in records), count)
     return Cell(
         method=method,
         category=category,
@@ -290,7 +317,20 @@ def _cell(method: str, category: str, records: Sequence[dict[str, Any]]) -> Cell
         completion=sum(bool(r["completed"]) for r in records) / count,
         false_done=sum(r["verdict"] == "false-done" for r in records),
         first_effective=sum(judged) / len(judged) if judged else None,
+        sr_low=low,
+        sr_high=high,
     )
+
+
+def wilson(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """The 95 % Wilson score interval of ``successes`` out of ``n`` (samples pooled over
+    tasks; (0, 1) for n = 0)."""
+    if n <= 0:
+        return 0.0, 1.0
+    p = successes / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * ((p * (1 - p) / n + z * z / (4 * n * n)) ** 0.5) / (1 + z * z / n)
+    return max(0.0, centre - half), min(1.0, centre + half)
 
 
 def summarise(records: Sequence[dict[str, Any]], methods: Sequence[str]) -> tuple[Cell, ...]:
@@ -388,19 +428,45 @@ def markdown_table(cells: Sequence[Cell], config: PromptingConfig) -> str:
         "",
         f"Per sample, over all tasks (n = {counts}):",
         "",
-        "| Method | SR | ASPL | 1st eff. | lift | syntax-error rate | repairs | tokens "
-        "| LLM latency (s) | loop completion | false done |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "| Method | SR | SR 95 % CI | ASPL | 1st eff. | lift | syntax-error rate | repairs "
+        "| tokens | LLM latency (s) | loop completion | false done |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for m in methods:
         c = get[(m, "all")]
         lines.append(
-            f"| {method_label(m, config.llm)} | {_f(c.sr)} | {_f(c.aspl)} | "
+            f"| {method_label(m, config.llm)} | {_f(c.sr)} | {_f(c.sr_low)}–{_f(c.sr_high)} | "
+            f"{_f(c.aspl)} | "
             f"{_f(c.first_effective)} | {_signed(c.lift)} | "
             f"{_f(c.syntax_error_rate)} | {c.repairs:.2f} | {c.tokens:.0f} | {c.latency:.2f} | "
             f"{c.completion:.2f} | {c.false_done} |"
         )
+    lines += ablation_lines(cells, config)
     return "\n".join(lines) + "\n"
+
+
+def ablation_lines(cells: Sequence[Cell], config: PromptingConfig) -> list[str]:
+    """SR over all tasks (with its interval) of each method under each variant of the assists,
+    when there is more than one: what each assist adds, alone and together."""
+    shown = variants(config)
+    if len(shown) < 2 or not config.methods:
+        return []
+    get = {(c.method, c.category): c for c in cells}
+    lines = [
+        "",
+        "Assists (SR over all tasks, 95 % interval; paper: the goals parsed and syntax-checked "
+        "only; assisted: every assist):",
+        "",
+        "| Method | " + " | ".join(a.label for a in shown) + " |",
+        "|---|" + "---:|" * len(shown),
+    ]
+    for m in config.methods:
+        row = [m]
+        for a in shown:
+            c = get.get((row_id(m, a), "all"))
+            row.append(f"{c.sr:.2f} ({c.sr_low:.2f}–{c.sr_high:.2f})" if c else "—")
+        lines.append("| " + " | ".join(row) + " |")
+    return lines
 
 
 # -------------------------------------------------------------------------------------- run
@@ -413,22 +479,44 @@ class Report:
     files: tuple[Path, ...] = field(default=())
 
 
+def variants(config: PromptingConfig) -> tuple[Assists, ...]:
+    """The assists the methods run with, in order (each protocol, then the ablation's)."""
+    out = [parse_assists(p) for p in config.protocols]
+    out += list(ablation()) if config.ablation else []
+    return tuple(dict.fromkeys(out))
+
+
+def row_id(method: str, assists: Assists) -> str:
+    """A method's row under ``assists``: the method's name in the assisted protocol (today's
+    loop), else ``method [label]``."""
+    return method if assists == PROTOCOLS["assisted"] else f"{method} [{assists.label}]"
+
+
+def plan_rows(config: PromptingConfig) -> list[tuple[str, str, Assists]]:
+    """(row, method, assists) of the table, in order: the oracle, replan, then the methods
+    under each variant."""
+    fixed = [
+        (m, m, Assists()) for m, on in ((ORACLE, config.oracle), (REPLAN, config.replan)) if on
+    ]
+    methods = [(row_id(m, a), m, a) for a in variants(config) for m in config.methods]
+    return fixed + methods
+
+
 def rows(config: PromptingConfig) -> list[str]:
-    """The table's rows, in order: the oracle, replan, then the methods."""
-    fixed = [m for m, on in ((ORACLE, config.oracle), (REPLAN, config.replan)) if on]
-    return fixed + list(config.methods)
+    """The table's rows, in order: the oracle, replan, then the methods (per variant)."""
+    return [row for row, _, _ in plan_rows(config)]
 
 
 def jobs_for(config: PromptingConfig, tasks: Sequence[SuiteTask]) -> list[Job[Payload]]:
     out = []
     data = {t.source: _content(t) for t in tasks}
-    for method in rows(config):
+    for row, method, assists in plan_rows(config):
         is_fixed = method in (ORACLE, REPLAN)  # deterministic, never an LLM: one sample
         llm = method if is_fixed else config.llm
         record = None if is_fixed or config.record is None else str(config.record)
         for t in tasks:
             for k in range(1 if is_fixed else config.samples):
-                loop = loop_config(config, method, k)
+                loop = loop_config(config, method, k, assists)
                 prompts = (
                     ""
                     if method == ORACLE
@@ -437,9 +525,9 @@ def jobs_for(config: PromptingConfig, tasks: Sequence[SuiteTask]) -> list[Job[Pa
                     else _templates_digest()
                 )
                 digest = fingerprint([t.digest, asdict(loop), llm, record, prompts])
-                key = f"{method}/{_safe(llm)}/{t.name}/s{k}/{digest}"
+                key = f"{_safe(row)}/{_safe(llm)}/{t.name}/s{k}/{digest}"
                 keep = str(run_folder(config, key)) if config.keep_runs else None
-                payload = Payload(t.source, method, k, llm, record, loop, data[t.source], keep)
+                payload = Payload(t.source, method, k, llm, record, loop, data[t.source], keep, row)
                 out.append(Job(key, payload, {} if is_fixed else llm_resources(llm)))
     return out
 
@@ -505,6 +593,8 @@ def write_outputs(
         "oracle": config.oracle,
         "replan": config.replan,
         "measures_llm": config.measures_llm,
+        "protocols": [a.label for a in variants(config)],
+        "votes": config.votes,
         "samples": config.samples,
         "temperature": config.temperature,
         "max_rounds": config.max_rounds,
@@ -583,8 +673,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--methods",
         nargs="+",
         default=["all"],
-        help="prompting methods: all, none (the oracle and replan rows only), or some of "
-        + ", ".join(METHODS),
+        help="prompting methods: all, paper (the paper's five), none (the oracle and replan "
+        "rows only), or some of " + ", ".join(METHODS),
     )
     p.add_argument(
         "--no-oracle", action="store_true", help="leave out the oracle (upper-bound) row"
@@ -598,6 +688,21 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--measures-llm",
         action="store_true",
         help="only the tasks marked measures_llm (the replan baseline fails them)",
+    )
+    p.add_argument(
+        "--protocol",
+        nargs="+",
+        default=["assisted"],
+        help="paper (goals parsed and syntax-checked only) and/or assisted (today's loop), or "
+        "assists joined by '+' (" + ", ".join(Assists.names()) + "); each gets its rows",
+    )
+    p.add_argument(
+        "--assists",
+        action="store_true",
+        help="the ablation: the methods also with no assist, each assist alone, and all",
+    )
+    p.add_argument(
+        "--votes", type=int, default=1, help="self-consistency: checked answers per consultation"
     )
     p.add_argument("--samples", type=int, default=3, help="samples per task and method")
     p.add_argument("--temperature", type=float, default=0.7)
@@ -623,6 +728,8 @@ def config_from_args(args: argparse.Namespace) -> PromptingConfig:
     methods = (
         tuple(METHODS)
         if "all" in args.methods
+        else PAPER_METHODS
+        if args.methods == ["paper"]
         else ()
         if args.methods == ["none"]
         else tuple(args.methods)
@@ -647,6 +754,9 @@ def config_from_args(args: argparse.Namespace) -> PromptingConfig:
         out_dir=Path(args.out),
         executor=executor_from_args(args),
         keep_runs=getattr(args, "keep_runs", False),
+        protocols=tuple(getattr(args, "protocol", None) or ("assisted",)),
+        ablation=getattr(args, "assists", False),
+        votes=getattr(args, "votes", 1),
     )
 
 

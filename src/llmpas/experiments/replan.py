@@ -19,11 +19,12 @@ from collections.abc import Mapping
 from llmpas.language.logic import Atom, Not
 from llmpas.language.sexpr import SList, Sym, parse_all
 from llmpas.reasoning.llm import Request, Response
+from llmpas.reasoning.methods import REGISTRY
 from llmpas.reasoning.tables import Call
 
 REPLAN = "replan"
 FIRST_LOOK = "No reasoning: do the task again from what the robot now believes."
-PROGRAM_METHODS = ("progprompt", "inner-monologue")
+PROGRAM_METHODS = tuple(m.name for m in REGISTRY.values() if m.program)
 
 
 def task_literals(goal: str) -> tuple[Atom | Not, ...]:
@@ -86,7 +87,7 @@ class Replan:
                 if "?" not in args:
                     lines.append(f"{name}({', '.join(repr(a) for a in args)})")
                     break
-        if self.method == "inner-monologue":
+        if REGISTRY[self.method].reader == "skill":
             return "Robot action: " + (lines[-1] if lines else "done()")
         return "\n".join(lines) or "pass"
 

@@ -1,11 +1,12 @@
 """``llmpas bench report``: how big the main job's web report is and how long it takes to build
 (targets: under 5 MB, under 2 s). A benchmark, not a test: it runs the main job once
-(``llmpas run object-loss --llm oracle``, or reads a given run folder) and builds its page
-``--repeats`` times, reporting the median and the largest build time."""
+(``llmpas run object-loss --llm oracle --with-replan``, or reads a given run folder) and builds
+its page ``--repeats`` times, reporting the median and the largest build time."""
 
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
 import tempfile
 from pathlib import Path
@@ -25,12 +26,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _main_job(folder: Path, console: Console) -> Path:
-    """``llmpas run object-loss --llm oracle --out FOLDER/object-loss``, without its page."""
-    from llmpas.experiments.worlds import ORACLE, run_loop
+    """``llmpas run object-loss --llm oracle --with-replan --out FOLDER/object-loss``, without
+    its page (the replan-only run of the same scenario and seed in ``replan-only``)."""
+    from llmpas.experiments.worlds import ORACLE, llm_for, run_loop
+    from llmpas.files import atomic_write
 
     out = folder / "object-loss"
-    with console.status("running the main job (object-loss, oracle) ..."):
+    with console.status("running the main job (object-loss, oracle, and replan only) ..."):
         run_loop("object-loss", ORACLE, out=out)
+        run_loop("object-loss", llm_for("replan", world="pybullet"), out=out / "replan-only")
+    atomic_write(out / "about.json", json.dumps({"llm": ORACLE, "baseline": "replan-only"}))
     return out
 
 

@@ -18,6 +18,7 @@ from types import MappingProxyType
 from typing import Any
 
 from llmpas.errors import UsageError
+from llmpas.experiments.replan import REPLAN, Replan
 from llmpas.reasoning.backends.registry import make_backend
 from llmpas.reasoning.llm import LLM
 from llmpas.system import LLMFor, LoopResult, LoopSettings, OnRound, run
@@ -107,15 +108,23 @@ def oracle_for(world: str) -> LLMFor:
     return _attr(f"{world.partition(':')[0]}:oracle", "oracle")
 
 
-def llm_for(spec: str, record: str | None = None, world: str = "household") -> LLM | LLMFor:
-    """The backend for an ``--llm`` spec; ``oracle``: the world's labelled oracle."""
+def llm_for(
+    spec: str, record: str | None = None, world: str = "household", method: str = "flp"
+) -> LLM | LLMFor:
+    """The backend for an ``--llm`` spec; ``oracle``: the world's labelled oracle; ``replan``:
+    no reasoning, the session's task restated (in ``method``'s answer form)."""
 
     def oracle(arg: str, rec: str | None) -> LLMFor:
         if rec:
             raise ValueError("--record does not apply to the oracle")
         return oracle_for(world)
 
-    return make_backend(spec, record, {ORACLE: oracle})
+    def replan(arg: str, rec: str | None) -> LLMFor:
+        if rec or arg:
+            raise ValueError("replan takes no argument and records nothing (it is no LLM)")
+        return lambda session: Replan(session.task, method)
+
+    return make_backend(spec, record, {ORACLE: oracle, REPLAN: replan})
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,18 @@
   success feedback, earlier attempts) in which the LLM picks the robot's next skill; the skill's
   effect is the goal, and the closed loop feeds its outcome back in the next round.
 
+- ``flp-multi`` — FLP whose step 2 asks for every open possibility in one answer (all the places a
+  lost object could be, as one conjunction of search goals): one consultation instead of one per
+  place (the paper's ASPL argument).
+- ``flp-hypotheses`` — FLP with a structured first look: step 1 lists hypotheses about the cause,
+  each with the fact that would confirm or fix it; step 2 turns them into goals.
+
+``MethodConfig.votes`` > 1 adds self-consistency to any method: that many sampled answers, each
+checked by the validator (the loop's planner-backed check), the goal set most valid answers agree
+on kept.
+
+A method is a :class:`Method` in :data:`REGISTRY` (its step-2 template, its first-look template if
+any, how its answers are read): a new method is one template file and one registry line.
 Templates live in ``llmpas/reasoning/templates/*.txt`` (``string.Template`` placeholders) and can
 be edited without touching code. Every answer is parsed and validated against the goal vocabulary
 (:mod:`llmpas.reasoning.goals`); a rejected answer is sent back with the errors, at most
@@ -21,11 +33,13 @@ from __future__ import annotations
 
 import re
 import time
+from collections import Counter
 from collections.abc import Callable, Collection, Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cache
 from importlib import resources
 from string import Template
+from types import MappingProxyType
 
 from llmpas.language.logic import Formula
 from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal, parse_goals
@@ -34,8 +48,51 @@ from llmpas.reasoning.llm import LLM, Message, Request, Response
 from llmpas.reasoning.program import parse_program
 from llmpas.reasoning.tables import Call, Vocabulary
 
-METHODS = ("flp", "flp-refer", "one-step", "progprompt", "inner-monologue")
 DECODINGS = ("grammar", "schema", "none")
+READERS = ("goals", "program", "skill")
+
+
+@dataclass(frozen=True)
+class Method:
+    """A prompting method: the template of its goal prompt, the template of its first look
+    (empty: none), and how its answers are read (``goals``: PDDL literals; ``program``: a
+    ProgPrompt program of robot calls; ``skill``: one Inner-Monologue skill call)."""
+
+    name: str
+    template: str
+    first_look: str = ""
+    reader: str = "goals"
+
+    def __post_init__(self) -> None:
+        if not re.fullmatch(r"[a-z][a-z0-9-]*", self.name):
+            raise ValueError(f"method name {self.name!r}: lower-case letters, digits and '-'")
+        if self.reader not in READERS:
+            raise ValueError(f"method {self.name!r}: reader must be one of {', '.join(READERS)}")
+        if not self.template:
+            raise ValueError(f"method {self.name!r} needs a template")
+
+    @property
+    def program(self) -> bool:
+        """Whether its answers are programs of skill calls (not goal literals)."""
+        return self.reader != "goals"
+
+
+REGISTRY: Mapping[str, Method] = MappingProxyType(
+    {
+        m.name: m
+        for m in (
+            Method("flp", "flp_step2", first_look="flp_step1"),
+            Method("flp-refer", "flp_refer_step2", first_look="flp_step1"),
+            Method("one-step", "one_step"),
+            Method("progprompt", "progprompt", reader="program"),
+            Method("inner-monologue", "inner_monologue", reader="skill"),
+            Method("flp-multi", "flp_multi_step2", first_look="flp_step1"),
+            Method("flp-hypotheses", "flp_step2", first_look="flp_hypotheses_step1"),
+        )
+    }
+)
+METHODS = tuple(REGISTRY)
+PAPER_METHODS = ("flp", "flp-refer", "one-step", "progprompt", "inner-monologue")
 
 
 @cache
@@ -142,8 +199,14 @@ class MethodConfig:
     max_tokens: int = 256
     reasoning: int = 200  # characters of one reasoning line before the goals (0: goals only)
     repair_temperature: float = 0.7  # repairs sample: a greedy model would repeat its answer
+    votes: int = 1  # self-consistency: sampled answers per consultation, each checked (1: off)
+    vote_temperature: float = 0.7  # the temperature of the sampled answers (when votes > 1)
 
     def __post_init__(self) -> None:
+        if not 1 <= self.votes <= 16:
+            raise ValueError(f"votes must be in [1, 16], got {self.votes}")
+        if not 0 <= self.vote_temperature <= 2:
+            raise ValueError(f"vote_temperature must be in [0, 2], got {self.vote_temperature}")
         if self.method not in METHODS:
             raise ValueError(f"method must be one of {', '.join(METHODS)}; got {self.method!r}")
         if self.decoding not in DECODINGS:
@@ -205,13 +268,6 @@ def _constraints(
     return {}
 
 
-_TEMPLATES = {
-    "flp": "flp_step2",
-    "flp-refer": "flp_refer_step2",
-    "one-step": "one_step",
-    "progprompt": "progprompt",
-    "inner-monologue": "inner_monologue",
-}
 _ACTION = re.compile(r"Robot action:\s*(.*)")
 
 
@@ -219,9 +275,10 @@ def _reader(
     situation: Situation, vocab: Vocabulary, config: MethodConfig, exclude: Collection[Literal] = ()
 ) -> tuple[Callable[[str], GoalParse], dict[str, object]]:
     """How the method's answers are read, and how decoding is constrained."""
-    if config.method == "progprompt":  # free text: a program cannot be grammar-bound here
+    reader = REGISTRY[config.method].reader
+    if reader == "program":  # free text: a program cannot be grammar-bound here
         return (lambda text: parse_program(text, situation.calls, vocab)), {}
-    if config.method == "inner-monologue":
+    if reader == "skill":
         grammar = config.decoding == "grammar" and situation.calls
         constrain: dict[str, object] = (
             {"grammar": skill_gbnf(situation.calls, vocab, max(config.reasoning, 1))}
@@ -246,25 +303,31 @@ def propose(
     config: MethodConfig | None = None,
     check: Check | None = None,
     exclude: Iterable[Literal] = (),
+    prune: bool = True,
 ) -> Proposal:
     """Ask ``llm`` for goals with the configured method; parse, validate and repair.
 
-    With grammar decoding, the literals in ``exclude`` and every literal a validation rejected
-    in an earlier answer are left out of the grammar: a small model cannot repeat them."""
+    With grammar decoding, the literals in ``exclude`` and (with ``prune``) every literal a
+    validation rejected in an earlier answer are left out of the grammar: a small model cannot
+    repeat them. With ``config.votes`` > 1 the goal prompt is answered that many times and the
+    answer most valid answers agree on is taken (:func:`_vote`)."""
     config = config or MethodConfig()
+    method = REGISTRY[config.method]
     talk = _Conversation(llm, config, situation)
     first_look = ""
-    if config.method in ("flp", "flp-refer"):
-        step1 = template("flp_step1").substitute(situation.fields())
+    if method.first_look:
+        step1 = template(method.first_look).substitute(situation.fields())
         first_look = talk.ask("first-look", [_system(), Message("user", step1)], {}).strip()
-    prompt = template(_TEMPLATES[config.method]).substitute(situation.fields(first_look))
+    prompt = template(method.template).substitute(situation.fields(first_look))
     messages = [_system(), Message("user", prompt)]
     banned = set(exclude)
     read, constrain = _reader(situation, vocab, config, _sorted(banned))
     parse = _parse(talk.ask("goals", messages, constrain), read, check)
+    if config.votes > 1:
+        parse = _vote(talk, messages, constrain, read, check, parse)
     repairs = 0
     while not parse.ok and repairs < config.repairs:
-        if not banned.issuperset(parse.rejected):
+        if prune and not banned.issuperset(parse.rejected):
             banned.update(parse.rejected)
             try:
                 constrain = _reader(situation, vocab, config, _sorted(banned))[1]
@@ -280,6 +343,36 @@ def propose(
         ]
         parse = _parse(talk.ask(f"repair-{repairs}", messages, constrain, repairs), read, check)
     return Proposal(config.method, parse, tuple(talk.exchanges), repairs, first_look)
+
+
+def _vote(
+    talk: _Conversation,
+    messages: list[Message],
+    constrain: Mapping[str, object],
+    read: Callable[[str], GoalParse],
+    check: Check | None,
+    first: GoalParse,
+) -> GoalParse:
+    """Self-consistency with the validator as verifier: ``votes - 1`` more answers sampled at
+    ``vote_temperature`` (seeds after the first answer's), each parsed and checked; the goal set
+    given by most valid answers wins (ties: the one given first). None valid: the last
+    answer's rejection (its errors drive the repairs)."""
+    config = talk.config
+    sampled = replace(config, temperature=config.vote_temperature)
+    voter = _Conversation(talk.llm, sampled, talk.situation, talk.exchanges)
+    parses = [first]
+    for k in range(1, config.votes):
+        seed = None if config.seed is None else config.seed + 1000 + k
+        voter.config = replace(sampled, seed=seed)
+        parses.append(_parse(voter.ask(f"vote-{k}", messages, constrain), read, check))
+    valid = [p for p in parses if p.ok]
+    if not valid:
+        return parses[-1]  # the last answer's errors: the repair follows that answer
+    counts = Counter(frozenset(map(str, p.goals)) for p in valid)
+    best = max(counts.values())
+    chosen = next(p for p in valid if counts[frozenset(map(str, p.goals))] == best)
+    note = f"self-consistency: {len(valid)} of {len(parses)} answers valid; chosen by {best}"
+    return replace(chosen, notes=(*chosen.notes, note))
 
 
 def _sorted(literals: Iterable[Literal]) -> tuple[Literal, ...]:

@@ -35,6 +35,15 @@ def after_run(args: argparse.Namespace, echo: Callable[[str], None], **about: An
         llm = public_llm(str(llm))
         about |= {"llm": llm, "method": args.method, "decoding": args.decoding}
         line.append(f"--llm {llm} --method {args.method} --decoding {args.decoding}")
+        extra = {
+            "--protocol": getattr(args, "protocol", "assisted"),
+            "--assists": getattr(args, "assists", None),
+            "--votes": getattr(args, "votes", 1),
+        }
+        defaults = {"--protocol": "assisted", "--assists": None, "--votes": 1}
+        line += [f"{k} {v}" for k, v in extra.items() if v != defaults[k]]
+        if getattr(args, "with_replan", False):
+            line.append("--with-replan")
     line.append(f"--out {args.out}")
     about = {"scenario": args.scenario, "world": "household", **about, "command": " ".join(line)}
     try:

@@ -325,6 +325,42 @@ def _story(run: RunRecord) -> Markup:
     return tag("section", tag("h2", "The loop"), story, class_="card", id="loop")
 
 
+def _difference(run: RunRecord) -> Markup:
+    """Which of the LLM's goals made the difference, and the replan-only run of the same
+    scenario and seed (when the folder has one)."""
+    from llmpas.reporting.difference import difference
+
+    d = difference(run)
+    if not d.outcomes and d.baseline is None:
+        return Markup("")
+    rows = [
+        tag(
+            "tr",
+            tag("td", tag("a", f"round {o.round}", href=f"#reasoning-{o.round}")),
+            tag("td", tag("code", " ".join(o.goals) or "none")),
+            tag("td", tag("b", o.fate) if o.goals == d.decisive and d.decisive else o.fate),
+        )
+        for o in d.outcomes
+    ]
+    parts = [tag("h2", "What the LLM's goals did"), tag("p", d.verdict)]
+    if rows:
+        head = tag("tr", tag("th", "answer to"), tag("th", "goals"), tag("th", "outcome"))
+        parts.append(tag("table", head, *rows))
+    if d.baseline is not None:
+        verdict = {True: "task done", False: "not done", None: "no verdict"}[d.baseline.success]
+        link = tag("a", "the replan-only run", href=href(f"{d.baseline.folder}/index.html"))
+        parts.append(
+            tag(
+                "p",
+                "Same scenario and seed without the LLM: ",
+                link,
+                f" — {verdict}, ",
+                f"{d.baseline.rounds} rounds: {d.baseline.message}",
+            )
+        )
+    return tag("section", *parts, class_="card", id="difference")
+
+
 # --------------------------------------------------------------------------------- rounds
 
 
@@ -560,6 +596,7 @@ def render(run: RunRecord, budget: int = INLINE_BUDGET) -> str:
     body = [
         _hero(run, images),
         _story(run) if run.loop else Markup(""),
+        _difference(run) if run.loop else Markup(""),
         *(_round(run, r, images) for r in run.rounds),
         _gallery(run, images),
         _files(run, images),

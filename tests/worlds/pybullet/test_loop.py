@@ -27,7 +27,7 @@ QUIET = RunOptions(snapshots=False)
 
 
 def test_object_loss_recovers_with_the_oracle() -> None:
-    result = run_loop("object-loss", ORACLE, LoopConfig(options=QUIET))
+    result = run_loop("object-loss-seen", ORACLE, LoopConfig(options=QUIET))
     assert result.success, result.message
     assert [str(g) for r in result.rounds if r.proposal for g in r.proposal.goals] == [
         "(scanned table2)"
@@ -41,7 +41,7 @@ def test_object_loss_recovers_with_the_oracle() -> None:
 
 @pytest.mark.slow
 def test_object_loss_with_the_oracle_writes_the_episode_folder(tmp_path: Path) -> None:
-    result = run_loop("object-loss", ORACLE, out=tmp_path)
+    result = run_loop("object-loss-seen", ORACLE, out=tmp_path)
     assert result.success, result.message
     first = result.rounds[0]
     assert first.episode is not None and first.episode.anomaly is not None
@@ -77,7 +77,7 @@ class Silent:
 
 
 def test_without_usable_goals_the_loop_stops_and_the_task_is_not_done() -> None:
-    result = run_loop("object-loss", Silent(), LoopConfig(max_rounds=1, options=QUIET))
+    result = run_loop("object-loss-seen", Silent(), LoopConfig(max_rounds=1, options=QUIET))
     assert not result.success
     assert len(result.rounds) == 1
 
@@ -106,7 +106,7 @@ class Sequence:
 
 def test_a_lost_cubes_new_table_as_an_on_goal_is_read_as_a_search() -> None:
     llm = Sequence("Goals: (and (on cube table2))")
-    result = run_loop("object-loss", llm, LoopConfig(options=QUIET))
+    result = run_loop("object-loss-seen", llm, LoopConfig(options=QUIET))
     assert result.success, result.message
     proposal = next(r.proposal for r in result.rounds if r.proposal)
     assert [str(g) for g in proposal.goals] == ["(scanned table2)"]
@@ -115,7 +115,7 @@ def test_a_lost_cubes_new_table_as_an_on_goal_is_read_as_a_search() -> None:
 
 def test_searching_the_table_the_cube_was_not_found_on_is_sent_back() -> None:
     llm = Sequence("Goals: (and (scanned table1))", "Goals: (and (scanned table2))")
-    result = run_loop("object-loss", llm, LoopConfig(MethodConfig("one-step"), options=QUIET))
+    result = run_loop("object-loss-seen", llm, LoopConfig(MethodConfig("one-step"), options=QUIET))
     assert result.success, result.message
     proposal = next(r.proposal for r in result.rounds if r.proposal)
     assert [str(g) for g in proposal.goals] == ["(scanned table2)"] and proposal.repairs == 1
@@ -125,12 +125,12 @@ def test_searching_the_table_the_cube_was_not_found_on_is_sent_back() -> None:
 
 
 def three_tables() -> SceneConfig:
-    scene = scenarios()["object-loss"].scene
+    scene = scenarios()["object-loss-seen"].scene
     return replace(scene, tables=(*scene.tables, TableConfig("table3", -1.6, 0.0, math.pi / 2)))
 
 
 def test_a_search_of_the_wrong_table_goes_back_to_the_llm_with_the_places_left() -> None:
-    scenario = replace(scenarios()["object-loss"], name="object-loss-3", scene=three_tables())
+    scenario = replace(scenarios()["object-loss-seen"], name="object-loss-3", scene=three_tables())
     llm = Sequence("Goals: (and (scanned table3))", "Goals: (and (scanned table2))")
     config = LoopConfig(MethodConfig("one-step"), options=QUIET)
     result = run_loop(scenario, llm, config, world="pybullet")
@@ -165,12 +165,12 @@ def _replayed(scenario: str, seed: int) -> bool:
     return result.success
 
 
-@pytest.mark.parametrize("scenario", ["action-blocking", "object-loss"])
+@pytest.mark.parametrize("scenario", ["action-blocking", "object-loss-seen"])
 def test_the_offline_models_recorded_answers_recover(scenario: str) -> None:
     assert _replayed(scenario, 0)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("scenario", ["action-blocking", "object-loss"])
+@pytest.mark.parametrize("scenario", ["action-blocking", "object-loss-seen"])
 def test_the_offline_model_succeeds_in_9_of_10_seeds(scenario: str) -> None:
     assert sum(_replayed(scenario, seed) for seed in range(10)) >= 9

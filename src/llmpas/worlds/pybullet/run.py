@@ -20,7 +20,13 @@ import numpy as np
 from llmpas.execution.context import Belief
 from llmpas.files import atomic_write
 from llmpas.worlds.pybullet.problem import initial_belief
-from llmpas.worlds.pybullet.scene import TABLE_TOP, ObjectConfig, Scene, SceneConfig
+from llmpas.worlds.pybullet.scene import (
+    TABLE_TOP,
+    ObjectConfig,
+    Scene,
+    SceneConfig,
+    TableConfig,
+)
 from llmpas.worlds.pybullet.snapshot import save_media
 from llmpas.worlds.pybullet.values import BaseConf, ObjectPose
 from llmpas.worlds.pybullet.world import Event, PyBulletWorld
@@ -82,6 +88,17 @@ def _objects(*extra: ObjectConfig) -> tuple[ObjectConfig, ...]:
     )
 
 
+def _four_tables() -> tuple[TableConfig, ...]:
+    """table1 and table2 as in the default scene, table3 behind the robot's start (opposite
+    table2) and table4 behind it the other way (opposite table1)."""
+    return (
+        TableConfig("table1", 1.6, 0.0, math.pi / 2),
+        TableConfig("table2", 0.0, 1.9),
+        TableConfig("table3", 0.0, -1.9),
+        TableConfig("table4", -1.8, 0.0, math.pi / 2),
+    )
+
+
 def scenarios() -> dict[str, Scenario]:
     goal = "(and (On cube bowl))"
     blocker = ObjectConfig("black_cube", "cube", "table2", 0.5, 0.3, "black")
@@ -102,8 +119,22 @@ def scenarios() -> dict[str, Scenario]:
             ),
             Scenario(
                 "object-loss",
-                "Object loss: while the robot drives to table1 for the cube, someone moves the "
-                "cube to table2. The robot still believes it is on table1.",
+                "Object loss that needs reasoning: while the robot drives to table1 for the "
+                "cube, someone carries the cube to table3, behind the robot, where no camera "
+                "sees it from table1 or from the bowl's table. The robot still believes it is "
+                "on table1; it could be on table2, table3 or table4. Replanning the task alone "
+                "cannot find it: a search of the right table is what recovers.",
+                SceneConfig(tables=_four_tables(), objects=_objects()),
+                goal,
+                seed=2,
+                events=(Event("move_base", 1, "cube", "table3", 0.3, 0.2),),
+                event_jitter=0.05,
+            ),
+            Scenario(
+                "object-loss-seen",
+                "Object loss the robot sees: while it drives to table1 for the cube, someone "
+                "moves the cube to table2 (the bowl's table), which the robot's mast camera "
+                "sees while it searches table1; replanning the task alone recovers.",
                 SceneConfig(objects=_objects()),
                 goal,
                 seed=2,
