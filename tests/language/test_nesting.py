@@ -46,9 +46,9 @@ def test_formulas_at_the_limit_are_planned(tmp_path: Path) -> None:
     [
         ("", "(?x - gizmo)", r"d\.pddl:2:31: type 'gizmo' in the parameters of action 'a'"),
         ("(:types a - b b - c c - a)", "(?x)", "type 'a' is its own ancestor|type 'c' is its"),
-        ("(:types a b) (:types a)", "(?x)", "type 'a' is declared twice"),
+        ("(:types a b) (:types a - b)", "(?x)", "type 'a' is declared twice, differently"),
         ("(:constants k - gizmo)", "(?x)", "type 'gizmo' in :constants is not declared"),
-        ("(:constants k m k)", "(?x)", "'k' is named twice in :constants"),
+        ("(:types t u) (:constants k - t m k - u)", "(?x)", "'k' is declared twice, differently"),
         ("", "(?x ?x)", "'\\?x' is named twice in the parameters of action 'a'"),
     ],
 )
