@@ -26,18 +26,21 @@ The task name (``name``) must be the file's stem.
 
 **Resolution length** of a run: the number of plan actions completed after the first anomaly
 until the loop ends (every round after the first anomalous one; actions of an interrupted round
-count as far as they were completed). ``l_gt`` is the resolution length the planner finds from
-the true anomaly state when told the truth there — the labelled oracle's goals (the oracle reads
-the simulator's true state; it is an upper bound, never a default) — the shortest over runs with
-each ``PYTHONHASHSEED`` of :data:`HASH_SEEDS` (the planner's tie-breaking depends on string
-hashing). ``validate-data`` recomputes it and reports a mismatch.
+count as far as they were completed). ``l_gt`` is the shortest resolution found from the true
+anomaly state when the robot is told the truth there — the labelled oracle's goals (the oracle
+reads the simulator's true state; it is an upper bound, never a default) — by the default greedy
+planner under each ``PYTHONHASHSEED`` of :data:`HASH_SEEDS` (its tie-breaking depends on string
+hashing) and by an optimal search (:data:`OPTIMAL_SEARCH`, :func:`optimal_resolution`).
+``validate-data`` recomputes both and reports a mismatch; a planner time-out is reported as
+such, never as "unreachable" (:data:`NO_VERDICT`).
 
 **Effective goal sets** (``effective``): ``validate-data`` checks that each parses as an answer
 would (the task's goal vocabulary) and that, proposed as the first answer at the anomaly (as the
 oracle's goals are), the loop accepts it unchanged and plans it from the anomaly state (a run
 that then does not resolve the task is a note, not an error). A task marked ``measures_llm``
-must be failed by the ``replan`` baseline (:mod:`llmpas.experiments.replan`): its anomaly's
-cause is something the robot must be told or infer, not a fact the planner already has.
+must be failed by the ``replan`` baseline (:mod:`llmpas.experiments.replan`) and by an
+irrelevant goal (:func:`irrelevant_goal`): its anomaly's cause is something the robot must be
+told or infer, not a fact the planner already has.
 
 **Judging** a run (:func:`judge`): the closed loop (:func:`llmpas.system.run`) runs the task
 with the given LLM and prompting method; the sample succeeds when every goal the LLM proposed
