@@ -5,29 +5,43 @@ from __future__ import annotations
 
 import shutil
 import tomllib
+from dataclasses import replace
 from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
 
 import pytest
 
 from llmpas.cli import main
 from llmpas.experiments.oracles.household import oracle as oracle_factory
 from llmpas.experiments.suite import (
-    EXPECTED_COUNTS,
+    MINIMUM_COUNTS,
+    NO_VERDICT,
     SUITE_DIR,
     Category,
     OracleRun,
     SuiteError,
     Verdict,
+    anomaly_category,
     check_task,
     holds_in_truth,
+    irrelevant_goal,
+    irrelevant_issues,
     judge,
     load_suite,
     load_task,
+    oracle_run,
+    planner_limit,
     task_from_dict,
     validate_folder,
 )
 from llmpas.experiments.worlds import LoopConfig
+from llmpas.language.logic import Atom, Not
+from llmpas.planning import PlannerConfig
+from llmpas.planning.result import PlanStatus
 from llmpas.reasoning.llm import Request, Response
+from llmpas.worlds.api import RunOptions
+from llmpas.worlds.household.sim import HouseholdWorld
 
 ALL = [p.stem for p in sorted(SUITE_DIR.glob("*.toml"))]
 REPRESENTATIVE = ("ol02-table1", "ol06-drawer4", "ab04-microwave-cube", "sc02-apple-stove")
@@ -62,11 +76,11 @@ def _copy(name: str, folder: Path, new_name: str, *edits: tuple[str, str]) -> Pa
 # ------------------------------------------------------------------------------- the files
 
 
-def test_shipped_suite_has_the_papers_task_counts() -> None:
+def test_shipped_suite_has_at_least_60_tasks_and_20_per_category() -> None:
     tasks = load_suite()
-    assert len(tasks) == 26
-    for cat, n in EXPECTED_COUNTS.items():
-        assert sum(t.category is cat for t in tasks) == n
+    assert len(tasks) >= 60
+    for cat, n in MINIMUM_COUNTS.items():
+        assert n >= 20 and sum(t.category is cat for t in tasks) >= n
     assert {t.name for t in tasks} == set(ALL)
     assert all(t.l_gt >= 1 and t.digest for t in tasks)
     # object loss: the object ends up on both tables, in all four drawers and under the basket
@@ -164,9 +178,10 @@ def _judge_oracle(name: str) -> None:
     j = judge(task, oracle_factory, LoopConfig())
     assert j.verdict is Verdict.SUCCESS, (name, j.message)
     assert j.completed and j.success
-    # a regression check (l_gt is the oracle's own length by construction); that no optimal
+    # l_gt is the shortest resolution found (the greedy oracle's or an optimal search's): the
+    # greedy oracle may take longer (sc02: 9 actions, optimal 8), never fewer; that no optimal
     # search resolves it in fewer actions is checked in test_suite_optimal.py
-    assert j.resolution_length == task.l_gt
+    assert j.resolution_length >= task.l_gt
     assert j.proposals >= 1 and j.syntax_errors == 0
     assert j.anomaly  # the anomaly really happened
 
@@ -254,8 +269,112 @@ def test_validate_folder_counts_and_missing_folders(tmp_path: Path) -> None:
     assert not empty.ok and "no task files" in str(empty.issues[0])
     shutil.copy(SUITE_DIR / "sc02-apple-stove.toml", tmp_path)
     counted = validate_folder(tmp_path, expect_counts=True, hash_seeds=())
-    assert {i.field for i in counted.issues} == {"judge.category"}  # 0 of 10, 0 of 8, 1 of 8
+    assert {i.field for i in counted.issues} == {"judge.category"}  # 0, 0 and 1 of 20
     assert validate_folder(tmp_path, hash_seeds=()).ok
+    counts = str(counted.issues[0])
+    assert "expected at least 20" in counts
+
+
+def test_replan_can_resolve_under_30_percent_of_each_category() -> None:
+    """A task the replan baseline resolves is never marked ``measures_llm`` (validate-data runs
+    the baseline and an irrelevant goal on each marked task); the unmarked ones stay under 30 %
+    of every category, so the replan row's SR stays below 0.3 in each."""
+    tasks = load_suite()
+    for cat in Category:
+        mine = [t for t in tasks if t.category is cat]
+        unmarked = [t.name for t in mine if not t.measures_llm]
+        assert len(unmarked) / len(mine) < 0.3, (cat, unmarked)
+
+
+def test_the_suite_varies_places_objects_and_causes() -> None:
+    """Not copies with renamed objects: object loss hides things in every kind of place, the
+    blocked appliances and the hidden states differ, and so do the objects and triggers."""
+    tasks = load_suite()
+    lost_to: set[str] = set()
+    appliances: set[str] = set()
+    states: set[str] = set()
+    triggers: set[str] = set()
+    objects: set[str] = set()
+    for t in tasks:
+        sc = t.scenario
+        objects |= set(sc.object_names)
+        triggers |= {e.after.skill for e in sc.events}
+        if t.category is Category.OBJECT_LOSS:
+            lost_to |= {e.under or e.region or "" for e in sc.events}
+            for o in sc.objects:
+                believed = sc.belief.get(o.name)
+                if believed is not None and believed.placement != o.placement:
+                    lost_to.add(o.placement.region)
+        appliances |= set(sc.one_at_a_time)
+        states |= {p for o in sc.objects for p in o.properties}
+        states |= {e.property or "" for e in sc.events}
+    assert {"drawer1", "drawer2", "drawer3", "drawer4", "basket", "floor", "fridge"} <= lost_to
+    assert {"microwave", "table1_left", "table2_left"} <= lost_to
+    assert {"sink", "stove", "fridge"} <= appliances
+    assert {"frozen", "greasy", "waxed", "hot", "spilled", "dirty"} <= states
+    assert {"move_base", "grasp", "release", "open"} <= triggers
+    assert len(objects) >= 9
+
+
+@pytest.mark.parametrize(
+    ("constraint", "category"),
+    [
+        (Atom("on", ("cube", "table1_left")), Category.OBJECT_LOSS),
+        (Not(Atom("full", ("bowl",))), Category.ACTION_BLOCKING),
+        (Not(Atom("obstructed", ("drawer2",))), Category.ACTION_BLOCKING),
+        (Not(Atom("jammed", ("drawer2",))), Category.ACTION_BLOCKING),
+        (Not(Atom("dirty", ("apple",))), Category.STATE_CHANGE),
+        (Not(Atom("spilled", ("mug",))), Category.STATE_CHANGE),
+        (Not(Atom("wet", ("mug",))), Category.STATE_CHANGE),
+        (Not(Atom("soaks", ("mug", "drawer3"))), Category.STATE_CHANGE),
+        (Not(Atom("broken", ("mug",))), Category.STATE_CHANGE),
+        (Not(Atom("hot", ("bread",))), Category.STATE_CHANGE),
+        (Atom("full", ("bowl",)), None),  # not a violated (not (full ...))
+    ],
+)
+def test_categories_accept_every_anomaly_kind_the_world_models(
+    constraint: Atom | Not, category: Category | None
+) -> None:
+    world = HouseholdWorld.from_scenario(load_task(SUITE_DIR / "ol02-table1.toml").scenario)
+    assert anomaly_category(constraint, world) is category
+
+
+def test_validate_data_tells_a_time_out_from_unreachable() -> None:
+    task = load_task(SUITE_DIR / "ol02-table1.toml")
+    tiny = LoopConfig(options=RunOptions(planner=PlannerConfig(max_time=0.01)))
+    (issue,) = oracle_run(task, tiny).issues
+    assert issue.field == "task.goal" and issue.message.startswith("time-out: ")
+    assert "unreachable" not in issue.message
+    text = (SUITE_DIR / "ol02-table1.toml").read_text()
+    both = 'goal = "(and (On mug sink) (Holding mug))"'
+    text = text.replace('goal = "(and (On mug sink))"', both)
+    bad = task_from_dict(tomllib.loads(text), source="ol02-table1.toml")
+    (issue,) = oracle_run(bad).issues
+    assert issue.field == "task.goal" and issue.message.startswith("unreachable: ")
+
+
+def test_a_run_ended_by_a_planner_limit_is_no_verdict() -> None:
+    def result(*statuses: PlanStatus, message: str = "") -> Any:
+        rounds = [SimpleNamespace(plan=SimpleNamespace(status=s)) for s in statuses]
+        return SimpleNamespace(rounds=rounds, message=message)
+
+    assert planner_limit(result(PlanStatus.SOLVED, PlanStatus.TIMEOUT)) is PlanStatus.TIMEOUT
+    assert planner_limit(result(PlanStatus.SOLVED, PlanStatus.UNSOLVABLE)) is None
+    why = "the LLM gave no usable goals: (on mug sink): not judged: search exceeded 1.00 s"
+    assert planner_limit(result(PlanStatus.SOLVED, message=why)) is PlanStatus.TIMEOUT
+    assert PlanStatus.UNSOLVABLE not in NO_VERDICT
+
+
+def test_an_irrelevant_goal_resolves_a_task_whose_cause_is_believed() -> None:
+    # sc02: the dirt is seen, so replanning after any goal washes the apple: not measuring
+    task = load_task(SUITE_DIR / "sc02-apple-stove.toml")
+    assert irrelevant_goal(task) == "(and (open drawer1))"
+    marked = replace(task, measures_llm=True)
+    (issue,) = irrelevant_issues(marked)
+    assert issue.field == "judge.measures_llm" and "(open drawer1)" in issue.message
+    # a frozen apple is not: the cause is in no fact, and opening a drawer does not thaw it
+    frozen = load_task(SUITE_DIR / "sc06-apple-frozen-stove.toml")
+    assert irrelevant_goal(frozen) is not None and irrelevant_issues(frozen) == []
 
 
 @pytest.mark.slow
@@ -263,7 +382,7 @@ def test_the_shipped_suite_validates() -> None:
     """Every shipped file passes validate-data: oracle runs with every hash seed, exact l_gt."""
     result = validate_folder(SUITE_DIR, jobs=2)
     assert result.ok, "\n".join(map(str, result.issues))
-    assert len(result.tasks) == 26
+    assert len(result.tasks) >= 60
 
 
 def test_l_gt_must_be_the_shortest_resolution_over_the_hash_seeds() -> None:

@@ -29,7 +29,7 @@ from llmpas.experiments.jobs import (
 from llmpas.files import atomic_write
 
 ORACLE = "oracle"
-QUICK_TASKS = ("ol01-table2", "ab02-bowl-black-cube", "sc01-apple-fridge")
+QUICK_TASKS = ("ol01-table2", "ab06-sink-mug", "sc06-apple-frozen-stove")
 
 
 @dataclass(frozen=True)

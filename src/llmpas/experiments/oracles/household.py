@@ -52,7 +52,8 @@ class Oracle(TruthOracle):
         if failed[-1].reason == "crowded":
             truth = self.world.truth
             others = sorted(o for o in truth.objects_in(appliance) if o != obj)
-            return [self._away(o) for o in others]
+            free = self._free_surfaces()
+            return [Atom("on", (o, free[i % len(free)])) for i, o in enumerate(others)]
         states = self.world.truth.properties.get(obj, set()) & HIDDEN
         if failed[-1].reason not in states:
             return []
@@ -61,15 +62,17 @@ class Oracle(TruthOracle):
                 return [Atom(PROCESS_EFFECTS[process], (obj,))]
         return []
 
-    def _away(self, obj: str) -> Atom:
-        """``obj`` onto the first empty table part."""
+    def _free_surfaces(self) -> list[str]:
+        """The empty table parts (each occupant goes to its own: two on one part can exceed the
+        planner's limits)."""
         truth, layout = self.world.truth, self.world.layout
-        free = next(
+        return [
             r
             for r in sorted(layout.regions)
-            if layout.regions[r].kind == "surface" and not truth.objects_in(r)
-        )
-        return Atom("on", (obj, free))
+            if layout.regions[r].kind == "surface"
+            and layout.furniture[layout.regions[r].furniture].solid
+            and not truth.objects_in(r)
+        ]
 
     def _elsewhere(self, jammed: str) -> list[Atom | Not]:
         """What was to go into a jammed container goes into the first other one of its kind
