@@ -20,7 +20,9 @@ def solved(load_script):
 
 def with_steps(attempt, steps):
     plan = dataclasses.replace(attempt.result.plan, steps=tuple(steps))
-    return dataclasses.replace(attempt, result=dataclasses.replace(attempt.result, plan=plan, improvements=()))
+    return dataclasses.replace(
+        attempt, result=dataclasses.replace(attempt.result, plan=plan, improvements=())
+    )
 
 
 def test_a_step_out_of_place_is_found(load_script) -> None:
@@ -48,7 +50,9 @@ def test_tests_are_recomputed_not_trusted(load_script) -> None:
     moved = dict(attempt.result.plan.objects)
     moved[last.args[1]] = values[other.args[1]] + np.array([0.2, 0.0])
     plan = dataclasses.replace(attempt.result.plan, objects=moved)
-    bad = dataclasses.replace(attempt, result=dataclasses.replace(attempt.result, plan=plan, improvements=()))
+    bad = dataclasses.replace(
+        attempt, result=dataclasses.replace(attempt.result, plan=plan, improvements=())
+    )
     assert problem.objects  # the problem is unchanged
     v = validate(bad)
     assert not v.valid, "a place on top of another block replayed"
