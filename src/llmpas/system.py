@@ -40,6 +40,7 @@ from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal
 from llmpas.reasoning.llm import LLM, LLMError, Request, Response
 from llmpas.reasoning.methods import MethodConfig, Proposal, propose, rejected
 from llmpas.reasoning.prompts import situation
+from llmpas.recovery import Stages, conjuncts, kept_goal, out_of_order
 from llmpas.safetext import fenced, printable
 from llmpas.worlds.api import RunOptions, Session, World
 
@@ -53,8 +54,13 @@ class LoopSettings:
     max_rounds: int = 3  # LLM consultations at most
     deadline: float | None = None  # seconds for the whole loop (checked between its steps)
     assists: Assists = field(default_factory=Assists)  # what the loop does for the LLM
+    # the task's intent (a task file's ``[judge] success``, PDDL): what ends the loop, so that
+    # an equivalent object can satisfy it; None: the task goal itself
+    success: str | None = None
 
     def __post_init__(self) -> None:
+        if self.success is not None and not self.success.strip():
+            raise ValueError("success must be a PDDL formula, got an empty text")
         if self.max_rounds < 0:
             raise ValueError(f"max_rounds must be >= 0, got {self.max_rounds}")
         if self.deadline is not None and not (math.isfinite(self.deadline) and self.deadline > 0):
@@ -212,6 +218,8 @@ class _Loop:
     clock: Callable[[], float] = time.monotonic
     timings: dict[str, float] = field(default_factory=dict)
     assists: Assists = field(default_factory=Assists)
+    success: str | None = None  # the task's intent (None: the task goal)
+    stages: Stages = field(default_factory=Stages)  # recovery goals reached and still to reach
 
     def __post_init__(self) -> None:
         if not self.assists.repair:
@@ -221,10 +229,11 @@ class _Loop:
         self.start = self.clock()
 
     def run(self, backend: LLM) -> LoopResult:
-        task = self.session.task
-        goal: Formula | str = task
-        text = task
-        for _ in range(2 * self.max_rounds + 1):  # the task, then per LLM round: goals + task
+        goal, text = self.task_goal()
+        on_task = True  # the round plans the task (with the recovery goals kept), not goals
+        steps = 2 * self.max_rounds + 1  # the task, then per LLM round: goals + task
+        while steps > 0:
+            steps -= 1
             if self.expired():
                 return self.stop_at_deadline()
             rnd = self.attempt(goal, text)
@@ -233,18 +242,28 @@ class _Loop:
             ep = rnd.episode
             asked = len([r for r in self.rounds if r.proposal])
             if ep is not None and ep.succeeded:
-                if text == task or self.task_holds():
+                if on_task or self.task_holds():
                     return self.end(self.task_holds(), "the task is done")
+                self.stages.reached(self.recovery_goals(rnd))
+                self.searched_in(rnd)
+                if self.stages.queue:  # the LLM's next goals, in the order it wrote them
+                    goal, text = self.next_goal(self.stages.queue)
+                    steps += 1
+                    continue
                 if self.pending is not None:  # achieved; if the task fails again, it did not help
                     self.tried.append(self.pending)
-                self.searched_in(rnd)
-                goal, text = task, task  # recovered: back to the task
+                goal, text = self.task_goal()  # recovered: back to the task
+                on_task = True
                 continue
             if ep is None:
                 # after a recovery that did not settle the anomaly (a search that found
                 # nothing), the task cannot be planned yet: the same anomaly goes back to the LLM
                 report = self.report
-                if report is None or text != task or asked >= self.max_rounds:
+                if report is None and on_task:
+                    report = self.report = self.unknown_place()  # the task names a lost object
+                    if report is not None:
+                        self.remember(report)
+                if report is None or not on_task or asked >= self.max_rounds:
                     return self.end(False, f"no plan for {text}: {rnd.plan.message}")
             else:
                 if ep.anomaly is not None and self.task_holds():
@@ -275,7 +294,8 @@ class _Loop:
                 return self.end(False, "the LLM gave no usable goals: " + errors)
             # goals whose execution fails are not blamed: only achieved ones count as tried
             self.pending = frozenset(map(str, proposal.goals))
-            goal, text = self.next_goal(proposal)
+            goal, text = self.next_goal(list(proposal.goals))
+            on_task = False
         return self.end(False, f"not done after {self.max_rounds} LLM rounds")
 
     def end(
@@ -352,24 +372,102 @@ class _Loop:
         return Round(text, result, episode, specs=specs)
 
     def task_holds(self) -> bool:
-        """Whether the robot believes the task done."""
-        task = parse_formula(self.session.task, self.sem.domain)
-        return self.sem.holds(task, self.session.context.belief.facts)
+        """Whether the robot believes the task done: its intent (``success``) where the run
+        has one, else its goal; read in the facts the planner plans from."""
+        intent = parse_formula(self.success or self.session.task, self.sem.domain)
+        return self.sem.holds(intent, self.facts(intent))
 
-    def next_goal(self, proposal: Proposal) -> tuple[Formula, str]:
-        """The new goals with the task goals they do not contradict, when that can be planned
-        and the plan does not repeat a step that failed for a reason the belief does not hold;
-        else the new goals alone (the task is planned again once they are achieved)."""
-        new = list(proposal.goals)
+    def facts(self, goal: Formula) -> frozenset[Atom]:
+        """The facts the planner would plan ``goal`` from now: the belief and what problem
+        construction adds (blocking and capacity facts, say). Every check of a goal reads these,
+        so that a check and the planner never disagree."""
+        return self.session.problem(goal, len(self.rounds)).init
+
+    def task_goal(self) -> tuple[Formula, str]:
+        """The task with the recovery goals reached so far kept true (:mod:`llmpas.recovery`),
+        when that can be planned; else the task alone."""
         task = parse_formula(self.session.task, self.sem.domain)
-        negated = {g.arg for g in new if isinstance(g, Not)}
-        keep = [a for a in atoms_of(task) if a not in negated and a not in new]
-        both = And((*new, *keep))
-        result = self.plan(both)[0]
-        if result.solved and not self.repeats_unexplained(result):
+        if self.stages.kept:
+            both = kept_goal(task, self.stages.kept)
+            if self.plan(both)[0].solved:
+                return both, str(both)
+        return task, self.session.task
+
+    def recovery_goals(self, rnd: Round) -> list[Literal]:
+        """The LLM's goals a recovery round reached, to keep true: neither its task conjuncts
+        nor its searches (a look stays done: nothing in the world undoes it)."""
+        goal = parse_formula(rnd.goal, self.sem.domain)
+        task = set(atoms_of(parse_formula(self.session.task, self.sem.domain)))
+        pending = {str(g) for g in self.stages.queue} | set(self.pending or ())
+        return [
+            g
+            for g in conjuncts(goal)
+            if isinstance(g, Atom | Not)
+            and str(g) in pending | {str(k) for k in self.stages.kept}
+            and (g.arg if isinstance(g, Not) else g) not in task
+            and not (isinstance(g, Atom) and g.predicate == self.search.predicate)
+        ]
+
+    def next_goal(self, goals: list[Literal]) -> tuple[Formula, str]:
+        """The new goals with the task goals they do not contradict and the recovery goals
+        reached before, when that can be planned, the plan does not repeat a step that failed
+        for a reason the belief does not hold, and it reaches the goals in the order written;
+        else the first goal (the others follow, one at a time) when the order was not kept;
+        else the new goals alone, with those reached before when that can be planned (the task
+        is planned again once they are achieved)."""
+        self.stages.queue = []
+        task = parse_formula(self.session.task, self.sem.domain)
+        both = kept_goal(task, self.stages.kept, goals)
+        result, problem = self.plan(both)
+        repeats = result.solved and self.repeats_unexplained(result)
+        if result.solved and not repeats and not self.reordered(result, problem, goals):
             return both, str(both)
-        alone = And(tuple(new))
-        return alone, str(alone)
+        goal = kept_goal(And(()), self.stages.kept, goals)
+        result, problem = self.plan(goal)
+        if not result.solved:
+            goal = And(tuple(goals))
+            result, problem = self.plan(goal)
+        if result.solved and self.reordered(result, problem, goals):
+            self.stages.queue = list(goals[1:])
+            goal = kept_goal(And(()), self.stages.kept, goals[:1])
+            if not self.plan(goal)[0].solved:
+                goal = And(tuple(goals[:1]))
+        return goal, str(goal)
+
+    def reordered(self, result: PlanResult, problem: Problem, goals: list[Literal]) -> bool:
+        """The plan reaches the goals out of the order written. Searches are left out: a look
+        changes nothing in the world, so the order of looks is the planner's to choose."""
+        changes = [
+            g for g in goals if not (isinstance(g, Atom) and g.predicate == self.search.predicate)
+        ]
+        return result.plan is not None and out_of_order(self.sem, problem, result.plan, changes)
+
+    def unknown_place(self) -> AnomalyReport | None:
+        """The task cannot be planned and names an object the robot knows of but cannot place:
+        an anomaly (a failed detection of it, with nothing looked at yet), so that the LLM is
+        asked where to search instead of the loop ending with no plan."""
+        task = parse_formula(self.session.task, self.sem.domain)
+        lost = sorted({o for a in atoms_of(task) for o in a.args if self.search.lost(o)})
+        if not lost:
+            return None
+        obj = lost[0]
+        where = Atom(self.search.location, (obj, "?"))
+        belief = tuple(sorted(self.session.context.belief.facts))
+        return AnomalyReport(
+            action="plan",
+            args=(obj,),
+            steps=(),
+            subtree="plan",
+            sub_action="locate",
+            constraint=where,
+            constraint_name=self.search.detection,
+            reason=f"where {obj} is, is unknown: the task cannot be planned before it is found",
+            explored={},
+            attempts=0,
+            failures={},
+            observations=(),
+            belief=belief,
+        )
 
     def repeats_unexplained(self, result: PlanResult) -> bool:
         """The plan contains the step whose failure is the anomaly, and the anomaly is that
@@ -390,19 +488,17 @@ class _Loop:
         """Already-true goals are dropped; repeats of exhausted searches and of attempts that
         did not help, and unreachable goals, are rejected with feedback."""
         raw = parse.goals
-        if self.assists.search_rewrite:
+        rewrite = self.assists.search_rewrite
+        if rewrite:
             parse = self.as_searches(parse)
         if not self.assists.validation:
             return parse
-        parse = self.drop_true(parse)
-        if not parse.ok:
-            return replace(parse, rejected=raw)
-        self.refresh()
         errors = []
         bad = []
+        searching = self.searching()
         for g in parse.goals:
             if isinstance(g, Atom) and g.predicate == self.search.predicate:
-                for obj, regions in self.searched.items():
+                for obj, regions in searching.items():
                     if g.args[0] in regions:
                         bad.append(g)
                         errors.append(
@@ -411,11 +507,14 @@ class _Loop:
                             + self.not_searched(obj, regions)
                         )
         if errors:
-            culprits = [r for r in raw if self.as_search(r) in bad]
+            culprits = [r for r in raw if (self.as_goal(r) if rewrite else r) in bad]
             return rejected(parse, GoalStatus.REPEATED, errors, culprits)
+        parse = self.drop_true(parse)
+        if not parse.ok:
+            return replace(parse, rejected=raw)
         parse = self.reachable(parse)
         if not parse.ok:
-            culprits = [r for r in raw if self.as_search(r) in parse.rejected]
+            culprits = [r for r in raw if (self.as_goal(r) if rewrite else r) in parse.rejected]
             return replace(parse, rejected=tuple(culprits))
         key = frozenset(map(str, parse.goals))
         if key in self.tried:
@@ -427,21 +526,43 @@ class _Loop:
         """Searches that cannot help (places already searched for a lost object), in both
         spellings: ``(scanned P)`` and ``(on X P)``; left out of the LLM's decoding."""
         out: list[Literal] = []
-        self.refresh()
-        for obj, regions in self.searched.items():
+        for obj, regions in self.searching().items():
             if self.search.lost(obj):
                 for place in sorted(regions):
+                    # (on X P) stays out even when it is the task's literal: X is lost, so no
+                    # plan reaches it before X is found (it is not read as a search, though)
                     out += [self.look(place), Atom(self.search.location, (obj, place))]
         return tuple(out)
+
+    def searching(self) -> dict[str, set[str]]:
+        """The places searched for each object: those searched in vain this run (while what the
+        robot believes about them is unchanged) and, for an object still lost, every place the
+        belief says was searched (``(scanned P)``: by the scenario, an earlier round or an
+        earlier run; such a goal would already hold). The prompt, the decoding grammar and the
+        validator all read this."""
+        self.refresh()
+        out = {obj: set(places) for obj, places in self.searched.items()}
+        scanned = {
+            a.args[0]
+            for a in self.session.context.belief.facts
+            if a.predicate == self.search.predicate and a.args
+        }
+        if scanned:
+            task = parse_formula(self.session.task, self.sem.domain)
+            named = {o for a in atoms_of(task) for o in a.args}
+            for obj in sorted(named | set(out)):
+                if self.search.lost(obj):
+                    out.setdefault(obj, set()).update(scanned)
+        return out
 
     def as_searches(self, parse: GoalParse) -> GoalParse:
         """``(on X P)`` for a lost object X and a place P the robot can search is read as the
         hypothesis it states: look at P, ``(scanned P)`` (no plan can put X anywhere before it
-        is found)."""
+        is found). Only a recovery goal is read so: the task's own literal stays what it is."""
         goals: list[Literal] = []
         notes = list(parse.notes)
         for g in parse.goals:
-            search = self.as_search(g)
+            search = self.as_goal(g)
             if search != g and isinstance(g, Atom):
                 notes.append(f"read {g} as {search}: where {g.args[0]} is, is unknown")
             if search not in goals:
@@ -449,6 +570,11 @@ class _Loop:
         if goals == list(parse.goals):
             return parse
         return GoalParse(parse.status, tuple(goals), parse.errors, parse.source, tuple(notes))
+
+    def as_goal(self, g: Literal) -> Literal:
+        """How the loop reads an answer's literal: :meth:`as_search`, except the task's own."""
+        task = set(atoms_of(parse_formula(self.session.task, self.sem.domain)))
+        return g if g in task else self.as_search(g)
 
     def as_search(self, g: Literal) -> Literal:
         """``(scanned P)`` for ``(on X P)`` with X lost and P a place to search; else ``g``."""
@@ -459,8 +585,10 @@ class _Loop:
         return g
 
     def drop_true(self, parse: GoalParse) -> GoalParse:
-        """Goals the robot believes already hold are dropped (all of them: rejected)."""
-        true = [g for g in parse.goals if self.sem.holds(g, self.session.context.belief.facts)]
+        """Goals the robot believes already hold are dropped (all of them: rejected); read in
+        the facts the planner plans from (:meth:`facts`)."""
+        facts = self.facts(And(parse.goals))
+        true = [g for g in parse.goals if self.sem.holds(g, facts)]
         if not true:
             return parse
         if len(true) == len(parse.goals):
@@ -558,8 +686,7 @@ class _Loop:
 
     def history(self) -> str:
         lines = []
-        self.refresh()
-        for obj, regions in self.searched.items():
+        for obj, regions in self.searching().items():
             if not regions:
                 continue
             lines.append(f"- {obj} was not found on {', '.join(sorted(regions))}")
@@ -592,6 +719,7 @@ def close_loop(
         on_round=on_round,
         clock=clock,
         assists=settings.assists,
+        success=settings.success,
     )
     try:
         backend = llm if isinstance(llm, LLM) else llm(session)

@@ -216,14 +216,16 @@ def test_unparsable_answers_count_as_syntax_errors() -> None:
     assert j.syntax_errors == j.answers
 
 
-def test_a_success_condition_false_in_the_truth_fails_even_if_the_loop_is_done() -> None:
+def test_a_success_condition_not_met_does_not_end_the_loop_done() -> None:
+    """The task's ``[judge] success`` is what ends the loop (#22): the task goal reached with
+    its intent unmet is not done (it was ``false-done`` when only the task goal ended it)."""
     text = (SUITE_DIR / "ol02-table1.toml").read_text()
     text = text.replace(
         'category = "object-loss"', 'category = "object-loss"\nsuccess = "(On mug table2_left)"'
     )
     task = task_from_dict(tomllib.loads(text), source="ol02-table1.toml")
     j = judge(task, oracle_factory, LoopConfig())
-    assert j.completed and j.verdict is Verdict.FALSE_DONE and not j.success
+    assert not j.completed and j.verdict is Verdict.NOT_DONE and not j.success
 
 
 # ------------------------------------------------------------------------------- validate

@@ -475,13 +475,15 @@ class Traced:
 
 def run_traced(task: SuiteTask, llm: LLM | LLMFor, config: LoopConfig) -> Traced:
     """Run the closed loop on ``task`` and keep the simulator (handed over when the backend is
-    built; the LLM never sees it unless it is the oracle)."""
+    built; the LLM never sees it unless it is the oracle). The task's ``[judge] success`` (its
+    intent, by default its goal) is what ends the loop, as it is what is judged."""
     worlds: list[HouseholdWorld] = []
 
     def factory(session: HouseholdSession) -> LLM:
         worlds.append(session.sim)
         return llm if isinstance(llm, LLM) else llm(session)
 
+    config = replace(config, success=task.success)
     result = run(WORLD, task.scenario, factory, config, config.options)
     return Traced(result, worlds[0])
 

@@ -33,6 +33,7 @@ from llmpas.worlds.household.problem import (
     Household,
     believe_at,
     believed_place,
+    believed_placements,
 )
 from llmpas.worlds.household.state import PROPERTIES, VISIBLE
 from llmpas.worlds.household.values import ArmTarget, BaseConf, Grasp, Motion, Placement
@@ -269,7 +270,7 @@ class Builder(KitchenBuilder):
 
         def find_spot(v: Values, ctx: Context) -> str | None:
             if holder is None:
-                ctx.perceive("spot", planned)
+                ctx.perceive("spot", planned)  # CFree may choose another
                 return None
             at = believed_place(ctx.belief, holder)
             if at is None:
@@ -293,14 +294,50 @@ class Builder(KitchenBuilder):
             return Atom("holding", (obj,)) if mistaken else Atom("on", (obj, region))
 
         released = Constraint("Released", lambda v, c: None, released_atom, needs=("base",))
-        dims = (self._view_bases(lambda v: self._holder_region(region)),)
+        dims: tuple[Dimension, ...] = (self._view_bases(lambda v: self._holder_region(region)),)
+        extra = [spot]
+        if holder is None and isinstance(planned, Placement):
+            extra.append(self._clear(obj, p, planned))
         return dims + self._reach_dims(obj, lambda v: v["spot"], ["top"]), (
             self._go("go_look", "view_base"),
             self._look(where),
-            self._check(step, spot),
+            self._check(step, *extra),
             *self._approach(lambda v: v["spot"]),
             SubAction("release", release, needs=("base",), on_failure=released),
         )
+
+    def _clear(self, obj: str, pose: str, planned: Placement) -> Constraint:
+        """Where to put ``obj`` down, clear of every object the robot believes somewhere (seen
+        during this execution too): the planned placement, else one sampled in its region (a
+        spot taken by what the robot did not know of is resampled, not only the base). The
+        spot's collision facts (``CFree``) with the others enter the belief, so that the
+        precondition ``(not (UnsafePose obj pose))`` reads them; a resampled spot becomes the
+        value of the plan's pose name."""
+
+        def candidates() -> Iterator[Placement]:
+            yield planned
+            others = self._stream("sample-pose", (obj, planned.region))
+            for other in itertools.islice(others, self.exploration.spots):
+                if isinstance(other, Placement) and other != planned:
+                    yield other
+
+        def check(v: Values, ctx: Context) -> str | None:
+            for at in candidates():
+                facts = collision_facts(self.house, ctx.belief, obj, pose, at)
+                if facts is None:
+                    continue
+                if at != planned:
+                    ctx.belief.values[pose] = at
+                    ctx.belief.facts |= {
+                        Atom("pose", (obj, pose)),
+                        Atom("supported", (obj, pose, at.region)),
+                    }
+                ctx.belief.facts |= facts
+                ctx.perceive("spot", at)
+                return None
+            return f"no free spot for {obj} on {planned.region}: what the robot sees is in the way"
+
+        return Constraint("CFree", check, lambda v: Not(Atom("unsafepose", (obj, pose))))
 
     def _mistook(self, belief: Belief, obj: str, held: str) -> None:
         """The hand holds ``held``, not ``obj``: the grasp is ``held``'s, and where ``obj`` is
@@ -470,6 +507,23 @@ class Builder(KitchenBuilder):
         )
 
 
+def collision_facts(
+    house: Household, belief: Belief, obj: str, pose: str, at: Placement
+) -> set[Atom] | None:
+    """``(cfree obj pose o2 p2)`` for every other object ``o2`` believed at a pose ``p2`` (as
+    the ``test-cfree`` stream decides: another region, or footprints apart); None when ``at``
+    overlaps one of them."""
+    out: set[Atom] = set()
+    radius = house.objects[obj].radius
+    for o2, p2, there, spec in believed_placements(house, belief):
+        if o2 == obj:
+            continue
+        if there.region == at.region and at.distance(there) < radius + spec.radius:
+            return None
+        out.add(Atom("cfree", (obj, pose, o2, p2)))
+    return out
+
+
 def build_specs(
     house: Household, problem: Problem, plan: Plan, config: ExplorationConfig | None = None
 ) -> list[SubtreeSpec]:
@@ -477,4 +531,11 @@ def build_specs(
     return Builder(house, problem, plan, config or ExplorationConfig()).specs()
 
 
-__all__ = ["ExplorationConfig", "build_specs", "failing_literal", "furniture_of", "observe"]
+__all__ = [
+    "ExplorationConfig",
+    "build_specs",
+    "collision_facts",
+    "failing_literal",
+    "furniture_of",
+    "observe",
+]

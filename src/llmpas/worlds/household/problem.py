@@ -6,7 +6,7 @@ the simulator's true state.
 
 from __future__ import annotations
 
-from collections.abc import Collection, Iterable, Mapping
+from collections.abc import Collection, Iterable, Iterator, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -143,18 +143,26 @@ def capacity_facts(house: Household, belief: Belief) -> set[Atom]:
     return out
 
 
-def blocking_facts(house: Household, belief: Belief) -> set[Atom]:
-    """``(blocks P R)`` for every believed pose P on the floor in front of door R."""
-    out: set[Atom] = set()
-    fronts = [r.name for r in house.layout.regions.values() if r.front is not None]
-    for a in belief.facts:
+def believed_placements(
+    house: Household, belief: Belief
+) -> Iterator[tuple[str, str, Placement, ObjectSpec]]:
+    """Every object believed at a placement: its name, its pose's name, the placement, its
+    shape."""
+    for a in sorted(belief.facts):
         if a.predicate != "atpose":
             continue
         obj, p = a.args
         place = belief.values.get(p)
         spec = house.objects.get(obj)
-        if not isinstance(place, Placement) or spec is None:
-            continue
+        if isinstance(place, Placement) and spec is not None:
+            yield obj, p, place, spec
+
+
+def blocking_facts(house: Household, belief: Belief) -> set[Atom]:
+    """``(blocks P R)`` for every believed pose P on the floor in front of door R."""
+    out: set[Atom] = set()
+    fronts = [r.name for r in house.layout.regions.values() if r.front is not None]
+    for _obj, p, place, spec in believed_placements(house, belief):
         if not house.layout.on_floor(place.region):
             continue  # only what stands on the floor blocks a door
         for r in fronts:

@@ -40,9 +40,11 @@ class ExplorationConfig:
     grasps: int = 2
     base_samples: int = 3  # base poses to act from, per grasp
     max_samples: int = 40  # values drawn over a whole subtree
+    spots: int = 8  # placements sampled when the planned one is taken
 
     def __post_init__(self) -> None:
-        if min(self.view_bases, self.grasps, self.base_samples, self.max_samples) < 1:
+        budgets = (self.view_bases, self.grasps, self.base_samples, self.max_samples, self.spots)
+        if min(budgets) < 1:
             raise ValueError("exploration budgets must be >= 1")
 
 
