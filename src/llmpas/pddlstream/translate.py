@@ -132,9 +132,7 @@ def translate(
     for s in spec.streams:  # fluent facts reach the user's code with values, as in PDDLStream
         if s.fluents and s.name in implementations:
             impl = implementations[s.name]
-            implementations[s.name] = dataclasses.replace(
-                impl, fn=_FluentValues(impl.fn, naming.values)
-            )
+            implementations[s.name] = dataclasses.replace(impl, fluent_values=True)
     bs, bf = bind(spec, implementations)
     objects = dict(naming.values)
     for c in constants - objects.keys():
@@ -286,22 +284,6 @@ def _formula(expr: Any, naming: Naming, scope: frozenset[str], where: str) -> Fo
         return naming.name(a)
 
     return Atom(head, tuple(term(a) for a in rest))
-
-
-@dataclass(frozen=True)
-class _FluentValues:
-    """A stream with ``:fluents``: its ``fluents`` as PDDLStream gives them, tuples
-    ``('atpose', value, ...)`` (llmpas passes atoms of names)."""
-
-    fn: Any
-    values: Mapping[str, Any]
-
-    def __call__(self, *inputs: Any, fluents: Iterable[Any] = ()) -> Any:
-        facts = [
-            (a.predicate, *(self.values.get(x, x) for x in a.args)) if isinstance(a, Atom) else a
-            for a in fluents
-        ]
-        return self.fn(*inputs, fluents=facts)
 
 
 def _implementations(
