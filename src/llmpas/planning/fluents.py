@@ -11,10 +11,14 @@ planner that avoids the objects where they are *then*. While planning (focused):
   them apart from the other real facts, and checks them per step when a plan is replayed);
 - when it fails in a context, the instance is *blocked* in every state where the facts of that
   context hold (a superset of them), until a search fails and everything is re-enabled, as in
-  PDDLStream's adaptive algorithm. In the classical task a block is an object ``#cN`` with
-  static facts ``(ctxof__S #cN inputs...)`` and ``(ctx__P #cN args...)`` per fluent fact; the
-  domain derives ``(blocked__S inputs...)`` when all facts of one of the instance's contexts
-  hold, and every positive use of the stream's certified predicate requires it false.
+  PDDLStream's adaptive algorithm; when it can give nothing more there (a function or test
+  answered, a generator ended), it is also blocked for good in the states whose fluent facts
+  are exactly those (so that a search does not plan the same failure again and again).
+  In the classical task a block is an object ``#cN`` with static facts
+  ``(ctxof__S #cN inputs...)`` (or ``ctxexact__S`` for an exact one) and
+  ``(ctx__P #cN args...)`` per fluent fact; the domain derives ``(blocked__S inputs...)``
+  when one of the instance's blocks applies, and every positive use of the stream's certified
+  predicate requires it false.
 
 What stays unsupported is refused in one line by :func:`unsupported_fluents`.
 """
@@ -42,6 +46,8 @@ from llmpas.language.problem import Problem
 BLOCKED_PREFIX = "blocked__"
 CONTEXT_PREFIX = "ctx__"
 CONTEXT_OF_PREFIX = "ctxof__"
+CONTEXT_EXACT_PREFIX = "ctxexact__"
+CONTEXT_EXTRA_PREFIX = "ctxextra__"
 CONTEXT_MISSING = "ctxmissing__"
 CONTEXT_OBJECT = "#c"
 
@@ -141,14 +147,31 @@ def fluent_additions(
         body: Formula = And((Atom(CONTEXT_PREFIX + p, ("?c", *names)), Not(Atom(p, names))))
         missing.append(Exists(xs, body) if xs else body)
     derived.append(Derived(Signature(CONTEXT_MISSING, (c,)), Or(tuple(missing))))
+    arity = {p: _arity(domain, p) for p in fluent_preds}
     for name, b in sorted(streams.items()):
+        extra: list[Formula] = []
+        for p in sorted(set(b.schema.fluents)):
+            ys = _vars(arity[p])
+            ns = tuple(y.name for y in ys)
+            body = And((Atom(p, ns), Not(Atom(CONTEXT_PREFIX + p, ("?c", *ns)))))
+            extra.append(Exists(ys, body) if ys else body)
+        derived.append(Derived(Signature(CONTEXT_EXTRA_PREFIX + name, (c,)), Or(tuple(extra))))
         xs = _vars(len(b.schema.inputs))
         names = tuple(x.name for x in xs)
         preds.append(Signature(CONTEXT_OF_PREFIX + name, (c, *xs)))
-        body = And(
-            (Atom(CONTEXT_OF_PREFIX + name, ("?c", *names)), Not(Atom(CONTEXT_MISSING, ("?c",))))
+        preds.append(Signature(CONTEXT_EXACT_PREFIX + name, (c, *xs)))
+        complete = Not(Atom(CONTEXT_MISSING, ("?c",)))
+        superset = And((Atom(CONTEXT_OF_PREFIX + name, ("?c", *names)), complete))
+        exact = And(
+            (
+                Atom(CONTEXT_EXACT_PREFIX + name, ("?c", *names)),
+                complete,
+                Not(Atom(CONTEXT_EXTRA_PREFIX + name, ("?c",))),
+            )
         )
-        derived.append(Derived(Signature(BLOCKED_PREFIX + name, xs), Exists((c,), body)))
+        derived.append(
+            Derived(Signature(BLOCKED_PREFIX + name, xs), Exists((c,), Or((superset, exact))))
+        )
     return preds, derived
 
 
@@ -194,17 +217,20 @@ def block_uses(f: Formula, streams: Mapping[str, BoundStream]) -> Formula:
     return walk(f)
 
 
+_Blocks = Mapping[tuple[str, tuple[str, ...], frozenset[Atom]], str]
+
+
 def block_facts(
-    blocks: Mapping[tuple[str, tuple[str, ...], frozenset[Atom]], str],
-    hidden: set[str] | frozenset[str] = frozenset(),
+    blocks: _Blocks, exact: _Blocks, hidden: set[str] | frozenset[str] = frozenset()
 ) -> set[Atom]:
     """The static facts of the active blocks (those naming no ``hidden`` object)."""
     out: set[Atom] = set()
-    for (name, inputs, ctx), obj in blocks.items():
-        facts = {Atom(CONTEXT_OF_PREFIX + name, (obj, *inputs))}
-        facts |= {Atom(CONTEXT_PREFIX + a.predicate, (obj, *a.args)) for a in ctx}
-        if all(hidden.isdisjoint(a.args) for a in facts):
-            out |= facts
+    for kind, active in ((CONTEXT_OF_PREFIX, blocks), (CONTEXT_EXACT_PREFIX, exact)):
+        for (name, inputs, ctx), obj in active.items():
+            facts = {Atom(kind + name, (obj, *inputs))}
+            facts |= {Atom(CONTEXT_PREFIX + a.predicate, (obj, *a.args)) for a in ctx}
+            if all(hidden.isdisjoint(a.args) for a in facts):
+                out |= facts
     return out
 
 

@@ -142,7 +142,12 @@ class StreamStore:
         #: with the contexts they hold in, and the active blocks (see :mod:`.fluents`)
         self.fluent_records: dict[tuple[str, tuple[str, ...], frozenset[Atom]], Record] = {}
         self.fluent_facts: dict[Atom, set[frozenset[Atom]]] = {}
+        #: blocks: in every state with the context's facts, until a search fails (lifted then);
+        #: exact blocks (the instance is exhausted there): in states with exactly those facts,
+        #: for good. Both map (stream, inputs, context) to the context's object ``#cN``.
         self.blocks: dict[tuple[str, tuple[str, ...], frozenset[Atom]], str] = {}
+        self.exact: dict[tuple[str, tuple[str, ...], frozenset[Atom]], str] = {}
+        self._context_names: dict[tuple[str, tuple[str, ...], frozenset[Atom]], str] = {}
         self._contexts = itertools.count(1)
 
     def input_complexity(self, inputs: tuple[str, ...]) -> int:
@@ -176,14 +181,18 @@ class StreamStore:
         return self.fluent_records[key]
 
     def block(self, rec: Record) -> None:
-        """Block a fluent record that failed in its context (until :meth:`unblock`)."""
+        """Block a fluent record that failed in its context (until :meth:`unblock`; an
+        exhausted one also exactly there, for good)."""
         assert rec.fluents is not None
         key = (rec.bound.schema.name, rec.inputs, rec.fluents)
-        if key not in self.blocks:
-            self.blocks[key] = f"{CONTEXT_OBJECT}{next(self._contexts)}"
+        if key not in self._context_names:
+            self._context_names[key] = f"{CONTEXT_OBJECT}{next(self._contexts)}"
+        self.blocks[key] = self._context_names[key]
+        if rec.exhausted:
+            self.exact[key] = self._context_names[key]
 
     def unblock(self) -> bool:
-        """Lift every block; True when there was any."""
+        """Lift every block but the exact ones; True when there was any."""
         had = bool(self.blocks)
         self.blocks.clear()
         return had

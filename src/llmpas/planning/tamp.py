@@ -770,7 +770,7 @@ def _search(
     task = compile_task(
         run.problem,
         {a for a in store.facts | store.rejected if hidden.isdisjoint(a.args)}
-        | block_facts(store.blocks, hidden),
+        | block_facts(store.blocks, store.exact, hidden),
         opt,
         {t: v for t, v in run.costs.items() if hidden.isdisjoint(t.args)},
         _object_types(run, opt, hidden),
@@ -1005,8 +1005,9 @@ def _cpu() -> float:
 
 
 def _unsolvable_message(run: _Run) -> str:
-    n = len(run.store.records)
-    exhausted = sum(r.exhausted for r in run.store.records.values())
+    records = [*run.store.records.values(), *run.store.fluent_records.values()]
+    n = len(records)
+    exhausted = sum(r.exhausted for r in records)
     missing = missing_function_value(run.problem)
     return (
         f"{'no cheaper plan' if run.incumbent else 'no plan'}: the classical planner found "
