@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import dataclasses
 
-import numpy as np
 import pytest
 
 from llmpas.cli import main
@@ -99,7 +98,8 @@ def test_a_fluent_test_blocked_in_one_state_is_planned_in_another() -> None:
     assert plan is None and seen and all(f == [("free",)] for f in seen)
     domain = DOMAIN.replace(
         "(:action finish",
-        "(:action occupy :parameters () :precondition (Free) :effect (not (Free)))\n  (:action finish",
+        "(:action occupy :parameters () :precondition (Free) :effect (not (Free)))\n"
+        "  (:action finish",
     )
     seen.clear()
     pds = PDDLProblem(
@@ -122,7 +122,8 @@ def test_unsupported_fluent_constructs_are_refused_in_one_line() -> None:
     pds = PDDLProblem(DOMAIN, {}, streams, impl, [("Obj", "x"), ("Free",)], ("Done", "x"))
     with pytest.raises(
         Unsupported,
-        match=r"'ready': ':fluents', and its certified \(ready \.\.\.\) is in the :domain of 'good'",
+        match=r"'ready': ':fluents', and its certified \(ready \.\.\.\) is in the :domain of "
+        r"'good'",
     ) as e:
         solve(pds, max_time=30)
     assert "\n" not in str(e.value)

@@ -147,11 +147,11 @@ def fluent_additions(
         body: Formula = And((Atom(CONTEXT_PREFIX + p, ("?c", *names)), Not(Atom(p, names))))
         missing.append(Exists(xs, body) if xs else body)
     derived.append(Derived(Signature(CONTEXT_MISSING, (c,)), Or(tuple(missing))))
-    arity = {p: _arity(domain, p) for p in fluent_preds}
+    arities = {p: _arity(domain, p) for p in fluent_preds}
     for name, b in sorted(streams.items()):
         extra: list[Formula] = []
         for p in sorted(set(b.schema.fluents)):
-            ys = _vars(arity[p])
+            ys = _vars(arities[p])
             ns = tuple(y.name for y in ys)
             body = And((Atom(p, ns), Not(Atom(CONTEXT_PREFIX + p, ("?c", *ns)))))
             extra.append(Exists(ys, body) if ys else body)
