@@ -127,6 +127,14 @@ def translate(
     naming = Naming(given, constants)
     atoms, costs = _init(init, naming)
     domain = _declare_extra_facts(domain, spec, atoms)
+    computed = {f.name for f in spec.functions}
+    for term in sorted((t for t in costs if t.name not in domain.functions), key=str):
+        if term.name not in computed:  # PDDLStream accepts values no action reads
+            del costs[term]
+            notes.ignored(
+                f"init (= ({term.name} ...) ...)",
+                "the domain declares no such function (no action reads it)",
+            )
     goal_f = _formula(goal, naming, frozenset(), "goal")
     implementations = _implementations(spec, stream_map, stream_info or {}, notes)
     for s in spec.streams:  # fluent facts reach the user's code with values, as in PDDLStream

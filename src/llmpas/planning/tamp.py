@@ -14,6 +14,11 @@ first plan and, for ``anytime``, the searches bounded by the incumbent's cost th
 cheaper plans afterwards; a cheaper optimistic plan becomes the incumbent only once its streams
 are evaluated and it replays over the real values (:func:`_realize`).
 
+Streams with ``:fluents`` (focused only; :mod:`~llmpas.planning.fluents`): a plan's instance of
+one is evaluated per step that uses it, after the plan's other streams, with the fluent facts of
+the state before that step; its facts hold only in that context, and a failure blocks it in the
+states where the context's facts hold.
+
 In both, *deferred* streams are never evaluated here: the plan keeps their placeholders and lists,
 per action, the deferred instances the executor must satisfy.
 
