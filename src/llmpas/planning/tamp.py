@@ -437,14 +437,16 @@ def _evaluate(run: _Run, needed: list[OptInstance], trace: _Trace) -> dict[int, 
     When an instance fails (a test rejects, a function finds nothing), the plan's skeleton is
     kept and the binding is searched further, as PDDLStream's adaptive algorithm does: the most
     recently evaluated sampler upstream of the failure draws a new value and only what depends
-    on it is evaluated again, at most ``_RETRIES`` times per failed instance."""
+    on it is evaluated again, at most ``_RETRIES`` times per failed instance. For a fluent
+    stream, the samplers of the values in its context (where the plan put things before) are
+    upstream too, and each retry takes the next one back."""
     binder = _Binder(run, needed, trace)
     position, retries = 0, Counter[int]()
     while position < len(needed):
         if binder.bind(position) or retries[position] >= _RETRIES:
             position += 1
         else:
-            back = binder.backtrack(position)
+            back = binder.backtrack(position, retries[position])
             if back is None:
                 position += 1
             else:
@@ -467,6 +469,7 @@ class _Binder:
         self.real: dict[int, dict[str, str]] = {}  # id(evaluated instance) -> placeholder -> real
         self.fresh: set[int] = set()  # instances to call for a new value (backtracked to)
         self.fluent_failed = False  # a fluent stream failed: the later ones are not evaluated
+        self.contexts: dict[int, frozenset[Atom]] = {}  # id(fluent copy) -> its last context
 
     def _inputs(self, inst: OptInstance) -> tuple[str, ...]:
         sources = self.trace.sources.get(id(inst), {})
@@ -507,6 +510,7 @@ class _Binder:
         fluents = self._context_at(inst)
         if fluents is None:
             return False  # a step before it has no real values
+        self.contexts[id(inst)] = fluents
         store = self.run.store
         rec = store.fluent_record(inst.stream, inputs, fluents)
         out = rec.outputs[-1] if rec.outputs else store.call(rec)
@@ -550,17 +554,23 @@ class _Binder:
             facts, _ = sem.apply(sem.domain.action(name), tuple(real), sem.state(facts))
         return _context(sem, facts, inst.stream.schema.fluents)
 
-    def backtrack(self, k: int) -> int | None:
+    def backtrack(self, k: int, attempt: int = 0) -> int | None:
         """After ``needed[k]`` failed: the position of the latest sampler upstream of it that
-        may give another value, with everything depending on that sampler unbound; None if
-        there is none."""
-        upstream = self._upstream(self.needed[k])
+        may give another value (for a fluent stream, the ``attempt``-th latest, round), with
+        everything depending on that sampler unbound; None if there is none."""
+        failed = self.needed[k]
+        upstream = self._upstream(failed)
+        candidates: list[tuple[int, Record]] = []
         for j in sorted((self.position[i] for i in upstream), reverse=True):
             inst = self.needed[j]
             rec = self.run.store.records.get((inst.stream.schema.name, self._inputs(inst)))
-            if not inst.outputs or rec is None or rec.exhausted:
-                continue
-            if not self._worth_retrying(self.needed[k], inst, rec):
+            if inst.outputs and rec is not None and not rec.exhausted:
+                candidates.append((j, rec))
+        if failed.step is not None and candidates:
+            candidates = candidates[attempt % len(candidates) :][:1]
+        for j, rec in candidates:
+            inst = self.needed[j]
+            if not self._worth_retrying(failed, inst, rec):
                 return None
             for dependent in (*self._downstream(inst), id(inst)):
                 self.real.pop(dependent, None)
@@ -596,8 +606,19 @@ class _Binder:
         return True
 
     def _upstream(self, inst: OptInstance) -> set[int]:
+        """The instances of the stream plan whose values ``inst`` depends on: its producers,
+        theirs, and so on; for a fluent stream also the producers of the values in its last
+        context."""
         found: set[int] = set()
         todo = [inst]
+        context = self.contexts.get(id(inst))
+        if context is not None:
+            named = {x for a in context for x in a.args}
+            for other in self.needed:
+                made = self.real.get(id(other), {}).values()
+                if other.step is None and named.intersection(made):
+                    found.add(id(other))
+                    todo.append(other)
         while todo:
             for producer in self.trace.sources.get(id(todo.pop()), {}).values():
                 if id(producer) in self.position and id(producer) not in found:
