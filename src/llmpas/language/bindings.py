@@ -82,14 +82,9 @@ class StreamInfo:
 
 @dataclass(frozen=True)
 class Implementation:
-    """``fluent_values``: a stream with ``:fluents`` gets its fluent facts as PDDLStream gives
-    them, tuples ``(predicate, value, ...)`` of the objects' Python values (see
-    :meth:`BoundStream.fluent_arguments`); otherwise as atoms of object names."""
-
     fn: Callable[..., Any]
     kind: Kind = Kind.AUTO
     info: StreamInfo = field(default_factory=StreamInfo)
-    fluent_values: bool = False
 
 
 def sampler(fn: Callable[..., Iterable[Any]], **info: Any) -> Implementation:
@@ -123,12 +118,13 @@ class BoundStream:
     def info(self) -> StreamInfo:
         return self.impl.info
 
-    def fluent_arguments(self, facts: Iterable[Atom], values: Mapping[str, Any]) -> list[Any]:
-        """What the implementation gets as ``fluents`` for these facts (sorted)."""
-        ordered = sorted(facts)
-        if not self.impl.fluent_values:
-            return list(ordered)
-        return [(a.predicate, *(values.get(x, x) for x in a.args)) for a in ordered]
+    def fluent_arguments(
+        self, facts: Iterable[Atom], values: Mapping[str, Any]
+    ) -> list[tuple[Any, ...]]:
+        """What a stream with ``:fluents`` gets as ``fluents`` for these facts, as PDDLStream
+        gives them: tuples ``(predicate, value, ...)`` of the objects' Python values (an
+        object without one stands for itself: its name), sorted by fact."""
+        return [(a.predicate, *(values.get(x, x) for x in a.args)) for a in sorted(facts)]
 
     def outputs(
         self, inputs: tuple[Any, ...], fluents: Iterable[Any] = ()

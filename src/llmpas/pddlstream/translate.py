@@ -137,10 +137,6 @@ def translate(
             )
     goal_f = _formula(goal, naming, frozenset(), "goal")
     implementations = _implementations(spec, stream_map, stream_info or {}, notes)
-    for s in spec.streams:  # fluent facts reach the user's code with values, as in PDDLStream
-        if s.fluents and s.name in implementations:
-            impl = implementations[s.name]
-            implementations[s.name] = dataclasses.replace(impl, fluent_values=True)
     bs, bf = bind(spec, implementations)
     objects = dict(naming.values)
     for c in constants - objects.keys():
