@@ -59,10 +59,14 @@ class Plan:
     # deferred stream instances in the order they are needed, with what they certify
     deferred: tuple[StreamInstance, ...] = ()
     deferred_facts: Mapping[StreamInstance, tuple[Atom, ...]] = field(default_factory=dict)
+    # facts of streams with ``:fluents`` the plan relies on (also in ``certified``), each with
+    # the contexts (fluent facts) it was certified in: it holds only in states with those facts
+    fluent_facts: Mapping[Atom, frozenset[frozenset[Atom]]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "objects", MappingProxyType(dict(self.objects)))
         object.__setattr__(self, "deferred_facts", MappingProxyType(dict(self.deferred_facts)))
+        object.__setattr__(self, "fluent_facts", MappingProxyType(dict(self.fluent_facts)))
         if self.cost < 0:
             raise ValueError(f"plan cost must be >= 0, got {self.cost}")
 
