@@ -96,15 +96,25 @@ class PlanStats:
 @dataclass(frozen=True, eq=False)
 class Improvement:
     """A plan found while planning, cheaper than every one before it: when (wall and CPU
-    seconds since the call started; CPU counts the Fast Downward children) and what it costs."""
+    seconds since the call started; CPU counts the Fast Downward children; and in counts:
+    the iteration and the stream calls so far) and what it costs."""
 
     time: float
     cpu: float
     cost: float
     plan: Plan
+    iteration: int = 0  # the planning-loop iteration in which it became the incumbent
+    stream_calls: int = 0  # stream calls made until then
 
     def to_json(self) -> dict[str, float]:
-        return {"time": self.time, "cpu": self.cpu, "cost": self.cost, "length": len(self.plan)}
+        return {
+            "time": self.time,
+            "cpu": self.cpu,
+            "cost": self.cost,
+            "length": len(self.plan),
+            "iteration": self.iteration,
+            "stream_calls": self.stream_calls,
+        }
 
 
 @dataclass(frozen=True)

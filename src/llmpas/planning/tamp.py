@@ -12,7 +12,9 @@ needs no unevaluated stream.
 Plan quality (:mod:`~llmpas.planning.quality`): the config's quality names the search for the
 first plan and, for ``anytime``, the searches bounded by the incumbent's cost that look for
 cheaper plans afterwards; a cheaper optimistic plan becomes the incumbent only once its streams
-are evaluated and it replays over the real values (:func:`_realize`).
+are evaluated and it replays over the real values (:func:`_realize`). After a new incumbent,
+the optimistic closure first stops at the quality's ``improve_depth`` (streams on real values
+only), and goes back to full depth once a search there finds nothing cheaper.
 
 Streams with ``:fluents`` (focused only; :mod:`~llmpas.planning.fluents`): a plan's instance of
 one is evaluated per step that uses it, after the plan's other streams, with the fluent facts of
@@ -122,6 +124,7 @@ class _Run:
     idle: int = 0  # anytime: iterations since the last cheaper plan
     planners: dict[str, ClassicalPlanner] = field(default_factory=dict)  # by search string
     fluent: dict[str, BoundStream] = field(default_factory=dict)  # evaluated fluent streams
+    depth: int | None = None  # focused: the closure's depth near a new incumbent (None: max)
 
     @property
     def fluent_by_predicate(self) -> dict[str, str]:
@@ -204,8 +207,14 @@ class _Run:
         best = self.incumbent
         if best is None or plan.cost < best.cost:
             wall, cpu = time.perf_counter() - self.started, _cpu() - self.started_cpu
-            self.improvements.append(Improvement(wall, cpu, plan.cost, plan))
+            calls = self.store.calls.total()
+            self.improvements.append(
+                Improvement(wall, cpu, plan.cost, plan, self.iterations, calls)
+            )
             self.idle = 0
+            depth = self.quality.improve_depth
+            if self.config.algorithm == "focused" and depth is not None:
+                self.depth = depth if depth < self.config.max_level else None
             log.info(
                 "plan %d: cost %g, %d steps, after %.2f s (%.2f s CPU)",
                 len(self.improvements), plan.cost, len(plan), wall, cpu,
@@ -325,15 +334,8 @@ def _focused(run: _Run) -> PlanResult:
         evaluate_negative_tests(store, _negative_streams(run))
         if store.out_of_time():
             return _time_limit(run)
-        closure = Closure(run.complexity_limit, run.evidence)
-        opt = optimistic_instances(
-            store,
-            run.instantiated,
-            run.config.max_level,
-            shared=lambda b: run.config.share_placeholders and not run.deferred(b),
-            closure=closure,
-        )
-        _update_costs(run, opt)
+        depth = run.depth
+        closure, opt = _closure(run)
         if evaluated is not None:
             realized = _realize(run, evaluated, opt)
             if realized is not None:
@@ -341,9 +343,15 @@ def _focused(run: _Run) -> PlanResult:
                 done = run.accept(realized)
                 if done is not None:
                     return done
+                if run.depth != depth:  # a new incumbent: search near it first
+                    closure, opt = _closure(run)
         found = _search(run, opt)
         if isinstance(found, PlanResult):
             return found
+        if found is None and run.depth is not None:  # nothing cheaper near it: full depth
+            log.debug("iteration %d: no cheaper plan at depth %d", run.iterations, run.depth)
+            run.depth = None
+            continue
         if found is None:  # no plan (no cheaper plan) even with every enabled instance assumed
             if run.incumbent is not None and not run.quality.keep_sampling:
                 return run.result(PlanStatus.UNSOLVABLE, _unsolvable_message(run))
@@ -363,6 +371,21 @@ def _focused(run: _Run) -> PlanResult:
         real = _evaluate(run, needed, trace)
         evaluated = _Evaluated(actions, [i for insts in per_step for i in insts], trace, real)
     return _iteration_limit(run)
+
+
+def _closure(run: _Run) -> tuple[Closure, list[OptInstance]]:
+    """The optimistic closure for the next search (within the complexity limit, and the
+    depth of an improving search), with the function values it needs."""
+    closure = Closure(run.complexity_limit, run.evidence)
+    opt = optimistic_instances(
+        run.store,
+        run.instantiated,
+        run.config.max_level if run.depth is None else run.depth,
+        shared=lambda b: run.config.share_placeholders and not run.deferred(b),
+        closure=closure,
+    )
+    _update_costs(run, opt)
+    return closure, opt
 
 
 def _time_limit(run: _Run, where: str = "") -> PlanResult:
