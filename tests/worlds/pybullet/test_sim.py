@@ -312,3 +312,20 @@ def test_closing_on_nothing_is_not_a_grasp(scene: Scene) -> None:
     skills = Skills(scene, np.random.default_rng(0))
     assert not skills.close("cube")
     assert scene.held is None
+
+
+def test_rrt_connect_plans_the_same_path_whatever_ran_before(scene: Scene) -> None:
+    """OMPL seeds itself from the clock: unseeded, the same query drew other paths in every
+    process (a recorded prompt that counts the alternatives explored then missed its cassette)."""
+    scene.set_base(*AT_TABLE1)
+    add_wall(scene, "wall", (0.12, 0.02, 0.2), (1.13, 0.1, 0.9))
+    col = Collision(scene)
+    rng = np.random.default_rng(1)
+    a = solve_ik(scene, (1.1, -0.2, 0.8), top_grasp_orientation(), rng, valid=col)
+    b = solve_ik(scene, (1.1, 0.4, 0.8), top_grasp_orientation(), rng, valid=col)
+    c = solve_ik(scene, (1.0, 0.3, 0.7), top_grasp_orientation(), rng, valid=col)
+    assert a is not None and b is not None and c is not None
+    config = PlannerConfig(resolution=0.05)
+    first = plan_arm(scene, a, b, col, config)
+    plan_arm(scene, c, a, col, config)  # another query in between draws random numbers
+    assert first is not None and plan_arm(scene, a, b, col, config) == first

@@ -12,6 +12,7 @@ from __future__ import annotations
 import itertools
 import logging
 import math
+import zlib
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
@@ -34,6 +35,28 @@ def _ompl() -> tuple[object, object]:
     return ob, og
 
 
+def _seed_ompl(seed: int) -> None:
+    """Seed OMPL's random numbers. OMPL seeds itself from the clock once per process, so an
+    unseeded RRT-Connect draws other paths in every run (and, once in a while, a path that fails
+    where it passed before: a different anomaly report, a different prompt). The planners and
+    samplers built after this call draw from ``seed``; OMPL warns that the generator had already
+    started, which is harmless here (nothing built before is reused), so it is silenced."""
+    from ompl import util as ou
+
+    ou.setLogLevel(ou.LOG_NONE)
+    try:
+        ou.RNG.setSeed(seed)
+    finally:
+        ou.setLogLevel(ou.LOG_ERROR)
+
+
+def motion_seed(seed: int, start: Sequence[float], goal: Sequence[float]) -> int:
+    """A seed for one query: the config's seed and the query's end points (rounded), so the same
+    query plans the same path whatever ran before it in the process."""
+    text = repr((seed, [round(float(x), 6) for x in (*start, *goal)]))
+    return zlib.crc32(text.encode()) or 1  # OMPL takes 0 as "no seed"
+
+
 def wrap(a: float) -> float:
     """An angle in [-pi, pi)."""
     return (a + math.pi) % (2 * math.pi) - math.pi
@@ -42,6 +65,7 @@ def wrap(a: float) -> float:
 @dataclass(frozen=True)
 class PlannerConfig:
     timeout: float = 3.0  # seconds for RRT-Connect
+    seed: int = 0  # OMPL's random numbers, with each query's end points (motion_seed)
     resolution: float = 0.05  # max joint step (rad) or base step (m) between checked states
 
     def __post_init__(self) -> None:
@@ -76,6 +100,7 @@ def _solve(
     resolution: float,
 ) -> list[Conf] | None:
     _ob, og = _ompl()
+    _seed_ompl(motion_seed(config.seed, start, goal))
     ss = og.SimpleSetup(space)  # type: ignore[attr-defined]
     ss.setStateValidityChecker(lambda s: bool(valid(read(s))))
     si = ss.getSpaceInformation()
