@@ -36,7 +36,7 @@ from llmpas.language.errors import BindingError, LanguageError
 from llmpas.language.problem import Problem, read_problem
 from llmpas.limits import time_limit
 from llmpas.options import bounded_int, positive_float, positive_int, seed
-from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, solve
+from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, registry, solve
 from llmpas.planning.quality import DEFAULT_QUALITY, QUALITIES
 from llmpas.safetext import RedactingFilter, env_secrets, printable, redact
 
@@ -57,7 +57,19 @@ class CliError(UsageError):
 
 
 def _add_planner_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--algorithm", choices=("focused", "incremental"), default="focused")
+    p.add_argument(
+        "--algorithm",
+        choices=registry.algorithm_names(),
+        default=registry.DEFAULT_ALGORITHM,
+        help="the planning algorithm: "
+        + "; ".join(f"{e.name}: {e.description}" for e in registry.ALGORITHMS.values()),
+    )
+    p.add_argument(
+        "--classical",
+        choices=registry.classical_names(),
+        default=registry.DEFAULT_CLASSICAL,
+        help="the classical planner every search runs on",
+    )
     p.add_argument(
         "--defer",
         action=argparse.BooleanOptionalAction,
@@ -85,6 +97,7 @@ def _planner_config(args: argparse.Namespace) -> PlannerConfig:
     try:
         return PlannerConfig(
             algorithm=args.algorithm,
+            classical=args.classical,
             defer=args.defer and not args.eager,
             max_time=args.max_time,
             search_time=args.max_time,
@@ -227,6 +240,8 @@ def _cmd_bench_planning_time(args: argparse.Namespace, console: Console) -> int:
             max_time=args.max_time,
             sizes=tuple(args.sizes) if args.sizes else None,
             out_dir=Path(args.out),
+            algorithm=args.algorithm,
+            classical=args.classical,
             quality=args.quality,
             jobs=args.jobs,
             executor=executor_from_args(args),
@@ -276,6 +291,12 @@ def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     pt.add_argument("--out", default="results/planning-time")
     pt.add_argument(
         "--quality", choices=tuple(QUALITIES), default=DEFAULT_QUALITY, help="plan quality"
+    )
+    pt.add_argument(
+        "--algorithm", choices=registry.algorithm_names(), default=registry.DEFAULT_ALGORITHM
+    )
+    pt.add_argument(
+        "--classical", choices=registry.classical_names(), default=registry.DEFAULT_CLASSICAL
     )
     pt.add_argument(
         "--jobs",
@@ -410,8 +431,10 @@ def _cmd_pddlstream(args: argparse.Namespace, console: Console) -> int:
         }
         atomic_write(Path(args.summary), json.dumps(summary, indent=2) + "\n")
     if run.error:
-        raise CliError(run.error, ExitCode(run.exit_code) if run.exit_code in set(ExitCode)
-                       else ExitCode.FAILED)
+        raise CliError(
+            run.error,
+            ExitCode(run.exit_code) if run.exit_code in set(ExitCode) else ExitCode.FAILED,
+        )
     return run.exit_code
 
 

@@ -43,7 +43,8 @@ class BenchConfig:
     max_time: float = 60.0
     sizes: tuple[int, ...] | None = None  # None: each example's own sizes
     out_dir: Path = Path("results/planning-time")
-    algorithm: str = "focused"
+    algorithm: str = "focused"  # PlannerConfig.algorithm (llmpas.planning.registry)
+    classical: str = "fast-downward"  # PlannerConfig.classical (llmpas.planning.registry)
     quality: str = "fast"  # PlannerConfig.quality
     jobs: int = 1  # parallel processes (> 1: contended timings)
     # where the trials run (local: ``jobs`` processes)
@@ -130,7 +131,8 @@ def planner_config(mode: str, trial: int, config: BenchConfig) -> PlannerConfig:
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
     return PlannerConfig(
-        algorithm=config.algorithm,  # type: ignore[arg-type]
+        algorithm=config.algorithm,
+        classical=config.classical,
         defer=(mode == "deferred"),
         max_time=config.max_time,
         search_time=config.max_time,

@@ -1,0 +1,121 @@
+"""The extension points as registries (#25 item 5): adding a planning algorithm, a classical
+planner, a prompting method or a benchmark is one new file plus one registry line.
+
+Each test below writes the new file into a temporary folder on ``sys.path`` (or next to the
+templates it names), adds the one line to the registry (the mapping with one more entry), and
+sees the new choice in the command line's options and running there."""
+
+from __future__ import annotations
+
+import json
+import textwrap
+from pathlib import Path
+from types import MappingProxyType
+
+import pytest
+
+from llmpas.cli import build_parser, main
+from llmpas.planning import PlannerConfig, registry, solve
+from llmpas.planning.registry import Entry
+
+
+def _write_module(folder: Path, name: str, text: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The one new file: a module ``name`` in ``folder``, importable from now on."""
+    (folder / f"{name}.py").write_text(textwrap.dedent(text), encoding="utf-8")
+    monkeypatch.syspath_prepend(str(folder))
+
+
+def _choices(argv: list[str], option: str) -> tuple[str, ...]:
+    """The choices the parser offers for ``option`` of the subcommand ``argv``."""
+    parser = build_parser()
+    for word in argv:
+        sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
+        parser = sub.choices[word]  # type: ignore[attr-defined]
+    action = next(a for a in parser._actions if option in a.option_strings)
+    return tuple(action.choices or ())
+
+
+# ------------------------------------------------------------------- planning algorithms
+
+
+ALGORITHM = '''
+    """A planning algorithm: incremental planning under another name (the example of adding one)."""
+
+    from llmpas.planning.result import PlanResult
+    from llmpas.planning.tamp import Run, plan_incremental
+
+
+    def plan(run: Run) -> PlanResult:
+        return plan_incremental(run)
+'''
+
+
+def test_a_new_algorithm_is_one_file_and_one_registry_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    _write_module(tmp_path, "levels_example", ALGORITHM, monkeypatch)
+    line = Entry("levels", "levels_example:plan", "incremental, under another name")
+    table = MappingProxyType({**registry.ALGORITHMS, "levels": line})
+    monkeypatch.setattr(registry, "ALGORITHMS", table)
+
+    assert "levels" in _choices(["plan"], "--algorithm")
+    assert "levels" in _choices(["bench", "planning-time"], "--algorithm")
+    argv = ["plan", "--example", "tamp2d", "--size", "2", "--algorithm", "levels", "--json"]
+    assert main(argv) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["status"] == "solved" and out["stats"]["algorithm"] == "levels"
+
+
+def test_an_unregistered_algorithm_is_a_one_line_usage_error(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert "levels" not in registry.algorithm_names()
+    with pytest.raises(ValueError, match="unknown algorithm 'levels'; choose one of focused"):
+        PlannerConfig(algorithm="levels")
+    assert main(["plan", "--example", "tamp2d", "--algorithm", "levels"]) == 2
+    assert "invalid choice: 'levels'" in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------- classical planners
+
+
+CLASSICAL = '''
+    """A classical planner that finds nothing (the example of adding one)."""
+
+    from llmpas.planning.config import PlannerConfig
+    from llmpas.planning.downward import ClassicalPlan, ClassicalStatus
+
+
+    class Refuses:
+        def solve(self, domain: str, task: str, *, max_time: float | None = None) -> ClassicalPlan:
+            return ClassicalPlan(ClassicalStatus.UNSOLVABLE, (), None, 0.0, 0.0, "refused")
+
+
+    def make(search: str, config: PlannerConfig) -> Refuses:
+        return Refuses()
+'''
+
+
+def test_a_new_classical_planner_is_one_file_and_one_registry_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    _write_module(tmp_path, "refuses_example", CLASSICAL, monkeypatch)
+    line = Entry("refuses", "refuses_example:make", "finds no plan")
+    table = MappingProxyType({**registry.CLASSICAL_PLANNERS, "refuses": line})
+    monkeypatch.setattr(registry, "CLASSICAL_PLANNERS", table)
+
+    assert _choices(["plan"], "--classical") == ("fast-downward", "refuses")
+    argv = ["plan", "--example", "tamp2d", "--size", "2", "--json"]
+    assert main(argv) == 0  # Fast Downward by default
+    assert json.loads(capsys.readouterr().out)["status"] == "solved"
+    assert main([*argv, "--classical", "refuses"]) == 1  # every search on the new planner
+    assert json.loads(capsys.readouterr().out)["status"] == "unsolvable"
+
+
+def test_the_classical_planner_is_chosen_by_the_config() -> None:
+    from llmpas.examples import get_example
+
+    problem = get_example("tamp2d").make_problem(2, 0)
+    with pytest.raises(ValueError, match="unknown classical planner 'refuses'"):
+        PlannerConfig(classical="refuses")
+    assert solve(problem, PlannerConfig(classical="fast-downward")).solved
