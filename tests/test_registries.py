@@ -119,3 +119,47 @@ def test_the_classical_planner_is_chosen_by_the_config() -> None:
     with pytest.raises(ValueError, match="unknown classical planner 'refuses'"):
         PlannerConfig(classical="refuses")
     assert solve(problem, PlannerConfig(classical="fast-downward")).solved
+
+
+# ---------------------------------------------------------------------- prompting methods
+
+
+TEMPLATE = """\
+## Predicates
+$predicates
+
+## Anomaly (asked by the example method 'terse')
+$anomaly
+$history
+Answer with one line: Goals: $example
+"""
+
+
+def test_a_new_prompting_method_is_one_file_and_one_registry_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from llmpas.experiments.prompting import PromptingConfig
+    from llmpas.reasoning import methods
+    from llmpas.reasoning.methods import Method, MethodConfig
+
+    (tmp_path / "terse.txt").write_text(TEMPLATE, encoding="utf-8")  # the one new file
+    line = Method("terse", str(tmp_path / "terse.txt"))
+    monkeypatch.setattr(methods, "REGISTRY", MappingProxyType({**methods.REGISTRY, "terse": line}))
+
+    assert "terse" in _choices(["run"], "--method")
+    assert PromptingConfig(methods=("terse",)).methods == ("terse",)  # bench prompting --methods
+    assert MethodConfig("terse").method == "terse"
+    out = tmp_path / "run"
+    # the closed loop asks with the new template (the replan backend restates the task: not done)
+    argv = ["run", "object-loss-table", "--llm", "replan", "--method", "terse", "--rounds", "1"]
+    assert main([*argv, "--out", str(out)]) == 1
+    assert "asked by the example method 'terse'" in (out / "loop.md").read_text(encoding="utf-8")
+
+
+def test_an_unregistered_method_is_a_one_line_error(capsys: pytest.CaptureFixture[str]) -> None:
+    from llmpas.reasoning.methods import MethodConfig
+
+    with pytest.raises(ValueError, match=r"method must be one of flp, .*; got 'terse'"):
+        MethodConfig("terse")
+    assert main(["run", "object-loss-table", "--llm", "replan", "--method", "terse"]) == 2
+    assert "invalid choice: 'terse'" in capsys.readouterr().err

@@ -735,7 +735,7 @@ def _add_report(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
 def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     from llmpas.experiments.jobs import add_llm_argument
     from llmpas.reasoning.assists import PROTOCOLS, Assists
-    from llmpas.reasoning.methods import METHODS
+    from llmpas.reasoning.methods import DECODINGS, method_names
 
     p = sub.add_parser("run", help="the closed loop: plan, execute, reason about anomalies")
     p.add_argument(
@@ -747,8 +747,8 @@ def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--gui", action="store_true", help="open the simulator window (PyBullet)")
     p.add_argument("--no-llm", action="store_true", help="plan and execute once, no reasoning")
     add_llm_argument(p, replan=True)
-    p.add_argument("--method", default="flp", choices=METHODS)
-    p.add_argument("--decoding", default="grammar", choices=("grammar", "schema", "none"))
+    p.add_argument("--method", default="flp", choices=method_names())
+    p.add_argument("--decoding", default="grammar", choices=DECODINGS)
     p.add_argument("--rounds", type=positive_int, default=3, help="LLM consultations at most")
     p.add_argument(
         "--protocol",

@@ -78,7 +78,13 @@ from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning import PlannerConfig
 from llmpas.reasoning.assists import PROTOCOLS, Assists, ablation, parse_assists
 from llmpas.reasoning.llm import LLM
-from llmpas.reasoning.methods import DECODINGS, METHODS, PAPER_METHODS, MethodConfig
+from llmpas.reasoning.methods import (
+    DECODINGS,
+    METHODS,
+    PAPER_METHODS,
+    MethodConfig,
+    method_names,
+)
 from llmpas.system import LLMFor, LoopResult
 from llmpas.worlds.api import RunOptions
 
@@ -133,9 +139,10 @@ class PromptingConfig:
             parse_assists(spec)  # ValueError naming an unknown assist
         if not 1 <= self.votes <= 16:
             raise ValueError(f"votes must be in [1, 16], got {self.votes}")
-        bad = [m for m in self.methods if m not in METHODS]
+        known = method_names()
+        bad = [m for m in self.methods if m not in known]
         if bad:
-            raise ValueError(f"unknown method {bad[0]!r}; methods: {', '.join(METHODS)}")
+            raise ValueError(f"unknown method {bad[0]!r}; methods: {', '.join(known)}")
         if len(set(self.methods)) != len(self.methods):
             raise ValueError("a method is listed twice")
         if not self.methods and not self.oracle and not self.replan:
@@ -674,7 +681,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         nargs="+",
         default=["all"],
         help="prompting methods: all, paper (the paper's five), none (the oracle and replan "
-        "rows only), or some of " + ", ".join(METHODS),
+        "rows only), or some of " + ", ".join(method_names()),
     )
     p.add_argument(
         "--no-oracle", action="store_true", help="leave out the oracle (upper-bound) row"
@@ -726,7 +733,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def config_from_args(args: argparse.Namespace) -> PromptingConfig:
     methods = (
-        tuple(METHODS)
+        method_names()
         if "all" in args.methods
         else PAPER_METHODS
         if args.methods == ["paper"]

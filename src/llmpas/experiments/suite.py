@@ -58,7 +58,7 @@ import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
 from llmpas.errors import InputError
 from llmpas.execution.anomaly import AnomalyReport
@@ -80,10 +80,9 @@ from llmpas.language.sexpr import SExpr, SList, Sym, parse_all
 from llmpas.planning import PlannerConfig
 from llmpas.planning.config import Algorithm
 from llmpas.planning.result import PlanStatus
-from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal, parse_goals
+from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal
 from llmpas.reasoning.llm import LLM, Request, Response
-from llmpas.reasoning.methods import Proposal
-from llmpas.reasoning.program import parse_program
+from llmpas.reasoning.methods import Proposal, Situation, answer_reader
 from llmpas.system import LLMFor, LoopResult, LoopSettings, close_loop, run
 from llmpas.worlds.household.decomposition import ExplorationConfig
 from llmpas.worlds.household.layout import kitchen
@@ -507,18 +506,11 @@ def resolution_length(result: LoopResult) -> int:
 
 def _answer_reader(task: SuiteTask, config: LoopConfig) -> Callable[[str], GoalParse]:
     """How the method reads a goal answer (to count answers that do not even parse): the
-    methods module's own reader when it has one, else goals (programs for ProgPrompt)."""
+    method's own reader (:func:`llmpas.reasoning.methods.answer_reader`)."""
     vocab = vocabulary(household_for(task.scenario))
-    from llmpas.reasoning import methods
-
-    reader = getattr(methods, "_reader", None)
-    if reader is not None:
-        blank = methods.Situation("", "", "", "", "", calls=PROGRAM_CALLS)
-        read, _ = reader(blank, vocab, config.method)
-        return cast(Callable[[str], GoalParse], read)
-    if config.method.method == "progprompt":
-        return lambda text: parse_program(text, PROGRAM_CALLS, vocab)
-    return lambda text: parse_goals(text, vocab)
+    blank = Situation("", "", "", "", "", calls=PROGRAM_CALLS)
+    read, _ = answer_reader(blank, vocab, config.method)
+    return read
 
 
 def judge(
