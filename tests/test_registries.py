@@ -7,6 +7,7 @@ sees the new choice in the command line's options and running there."""
 
 from __future__ import annotations
 
+import argparse
 import json
 import textwrap
 from pathlib import Path
@@ -25,13 +26,21 @@ def _write_module(folder: Path, name: str, text: str, monkeypatch: pytest.Monkey
     monkeypatch.syspath_prepend(str(folder))
 
 
-def _choices(argv: list[str], option: str) -> tuple[str, ...]:
-    """The choices the parser offers for ``option`` of the subcommand ``argv``."""
+def _parser(argv: list[str]) -> argparse.ArgumentParser:
+    """The parser of the subcommand ``argv`` (e.g. ``["bench", "tamp"]``)."""
     parser = build_parser()
     for word in argv:
-        sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
-        parser = sub.choices[word]  # type: ignore[attr-defined]
-    action = next(a for a in parser._actions if option in a.option_strings)
+        parser = _subparsers(parser).choices[word]
+    return parser
+
+
+def _subparsers(parser: argparse.ArgumentParser) -> argparse._SubParsersAction:  # type: ignore[type-arg]
+    return next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+
+
+def _choices(argv: list[str], option: str) -> tuple[str, ...]:
+    """The choices the parser offers for ``option`` of the subcommand ``argv``."""
+    action = next(a for a in _parser(argv)._actions if option in a.option_strings)
     return tuple(action.choices or ())
 
 
@@ -163,3 +172,83 @@ def test_an_unregistered_method_is_a_one_line_error(capsys: pytest.CaptureFixtur
         MethodConfig("terse")
     assert main(["run", "object-loss-table", "--llm", "replan", "--method", "terse"]) == 2
     assert "invalid choice: 'terse'" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------------- benchmarks
+
+
+BENCHMARK = '''
+    """A benchmark: counts the shipped examples (the example of adding one)."""
+
+    import argparse
+    from pathlib import Path
+
+    from rich.console import Console
+
+    from llmpas.examples import EXAMPLES
+    from llmpas.experiments.benchmarks import AllConfig
+    from llmpas.files import atomic_write
+
+
+    class Examples:
+        name = "examples"
+        help = "how many shipped examples there are"
+
+        def add_arguments(self, parser: argparse.ArgumentParser) -> None:
+            parser.add_argument("--out", default="results/examples")
+
+        def command(self, args: argparse.Namespace, console: Console) -> int:
+            Path(args.out).mkdir(parents=True, exist_ok=True)
+            atomic_write(Path(args.out) / "examples.md", f"| examples |\\n| {len(EXAMPLES)} |\\n")
+            return 0
+
+        def step(self, config: AllConfig) -> tuple[str, ...] | None:
+            return ("--out", str(config.out_dir / self.name))
+
+
+    BENCHMARK = Examples()
+'''
+
+
+def test_a_new_benchmark_is_one_file_and_one_registry_line(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from llmpas.examples import EXAMPLES
+    from llmpas.experiments import benchmarks
+    from llmpas.experiments.everything import AllConfig, plan_steps, run_all
+
+    _write_module(tmp_path, "examples_bench", BENCHMARK, monkeypatch)
+    table = MappingProxyType({**benchmarks.BENCHMARKS, "examples": "examples_bench:BENCHMARK"})
+    monkeypatch.setattr(benchmarks, "BENCHMARKS", table)
+
+    assert list(_subparsers(_parser(["bench"])).choices)[-2:] == ["examples", "all"]
+    assert isinstance(benchmarks.benchmark("examples"), benchmarks.Benchmark)
+
+    out = tmp_path / "out"
+    assert main(["bench", "examples", "--out", str(out)]) == 0
+    assert (out / "examples.md").read_text() == f"| examples |\n| {len(EXAMPLES)} |\n"
+    assert main(["bench", "examples", "--out", "/dev/null/x"]) == 6  # the CLI's own checks
+    assert capsys.readouterr().err.strip() == "error: --out /dev/null/x: /dev/null is not a folder"
+
+    # `bench all` runs it after the others, as its own command, into its own folder
+    config = AllConfig(llm="oracle", out_dir=tmp_path / "all")
+    steps = plan_steps(config)
+    assert steps[-1].argv == ("bench", "examples", "--out", str(tmp_path / "all" / "examples"))
+    ran: list[str] = []
+
+    def run(argv: list[str]) -> int:  # the new step for real, the others only recorded
+        ran.append(argv[1])
+        return main(list(argv)) if argv[1] == "examples" else 0
+
+    outcomes = run_all(config, run)  # type: ignore[arg-type]
+    assert ran[-1] == "examples" and outcomes[-1].status == 0
+    assert "| examples | ok |" in (tmp_path / "all" / "summary.md").read_text()
+
+
+def test_the_bench_subcommands_are_the_registry() -> None:
+    from llmpas.experiments.benchmarks import benchmark, benchmark_names, benchmarks
+
+    assert [b.name for b in benchmarks()] == list(benchmark_names())
+    assert list(_subparsers(_parser(["bench"])).choices) == [*benchmark_names(), "all"]
+    with pytest.raises(ValueError, match="unknown benchmark 'nope'; choose one of validate-data"):
+        benchmark("nope")

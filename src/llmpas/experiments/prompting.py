@@ -50,6 +50,7 @@ from typing import Any
 from rich.console import Console
 
 from llmpas.errors import UsageError
+from llmpas.experiments.benchmarks import AllConfig, Bench
 from llmpas.experiments.jobs import (
     ExecutorSpec,
     Job,
@@ -829,9 +830,39 @@ def validate_command(args: argparse.Namespace, console: Console) -> int:
     return 1
 
 
+QUICK_TASKS = ("ol01-table2", "ab06-sink-mug", "sc06-apple-frozen-stove")  # bench all --quick
+
+
+def _in_all(config: AllConfig) -> tuple[str, ...]:
+    methods = "none" if config.llm == ORACLE else "all"  # oracle: its row only
+    samples = "1" if config.quick else str(config.samples)
+    tasks = ("--tasks", *QUICK_TASKS) if config.quick else ()
+    options = ("--llm", config.llm, "--methods", methods, "--samples", samples, *tasks)
+    return (*options, *config.jobs_argv(), *config.outputs("prompting"))
+
+
+BENCHMARK = Bench(
+    "prompting",
+    "prompting methods on the household anomaly suite",
+    add_arguments,
+    command,
+    _in_all,
+)
+
+VALIDATE_DATA = Bench(
+    "validate-data",
+    "check the household suite's task files",
+    add_validate_arguments,
+    validate_command,
+    lambda config: None if config.quick else config.jobs_argv(),
+)
+
 __all__ = [
+    "BENCHMARK",
     "ORACLE",
+    "QUICK_TASKS",
     "REPLAN",
+    "VALIDATE_DATA",
     "Cell",
     "Payload",
     "PromptingConfig",
