@@ -252,3 +252,22 @@ def test_the_bench_subcommands_are_the_registry() -> None:
     assert list(_subparsers(_parser(["bench"])).choices) == [*benchmark_names(), "all"]
     with pytest.raises(ValueError, match="unknown benchmark 'nope'; choose one of validate-data"):
         benchmark("nope")
+
+
+# ------------------------------------------------------------------------------- the docs
+
+
+def _readme_row(extension: str) -> tuple[str, ...]:
+    readme = (Path(__file__).parents[1] / "README.md").read_text(encoding="utf-8")
+    row = next(line for line in readme.splitlines() if line.startswith(f"| {extension} "))
+    return tuple(name.strip(" `") for name in row.split(" | ")[2].split(","))
+
+
+def test_the_readme_lists_what_each_registry_holds() -> None:
+    from llmpas.experiments.benchmarks import benchmark_names
+    from llmpas.reasoning.methods import method_names
+
+    assert _readme_row("planning algorithm") == registry.algorithm_names()
+    assert _readme_row("classical planner") == registry.classical_names()
+    assert _readme_row("prompting method") == method_names()
+    assert _readme_row("benchmark") == benchmark_names()

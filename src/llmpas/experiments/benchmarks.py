@@ -31,7 +31,7 @@ ORACLE = "oracle"
 #: reasoner, then what ``bench all`` leaves out.
 BENCHMARKS: Mapping[str, str] = MappingProxyType(
     {
-        "validate-data": "llmpas.experiments.prompting:VALIDATE_DATA",
+        "validate-data": "llmpas.experiments.suite.validate:BENCHMARK",
         "planning-time": "llmpas.experiments.planning_time:BENCHMARK",
         "tamp": "llmpas.experiments.tamp:BENCHMARK",
         "perturbation": "llmpas.experiments.perturbation:BENCHMARK",

@@ -49,7 +49,6 @@ from typing import Any
 
 from rich.console import Console
 
-from llmpas.errors import UsageError
 from llmpas.experiments.benchmarks import AllConfig, Bench
 from llmpas.experiments.jobs import (
     ExecutorSpec,
@@ -65,7 +64,6 @@ from llmpas.experiments.jobs import (
 )
 from llmpas.experiments.replan import REPLAN, Replan
 from llmpas.experiments.suite import (
-    HASH_SEEDS,
     SUITE_DIR,
     Category,
     SuiteTask,
@@ -775,61 +773,6 @@ def command(args: argparse.Namespace, console: Console) -> int:
     return 0
 
 
-def add_validate_arguments(p: argparse.ArgumentParser) -> None:
-    """The options of ``llmpas bench validate-data``."""
-    p.add_argument("folder", nargs="?", default=str(SUITE_DIR), help="folder of task files")
-    p.add_argument(
-        "--seeds",
-        type=int,
-        default=len(HASH_SEEDS),
-        help="oracle runs per task, with PYTHONHASHSEED 0, 1, ... (l_gt: the shortest found); "
-        "0: one run in this process",
-    )
-    p.add_argument("--jobs", type=int, default=1, help="oracle runs in parallel processes")
-    p.add_argument("--max-time", type=float, default=60.0, help="planner seconds per plan")
-
-
-def validate_command(args: argparse.Namespace, console: Console) -> int:
-    """``llmpas bench validate-data``: one line per mistake; exit status 1 when any."""
-    from llmpas.experiments.jobs import progress_bar
-    from llmpas.experiments.suite import SuiteError, task_files, validate_folder
-
-    if args.seeds < 0 or args.jobs < 1:
-        raise UsageError("--seeds must be >= 0 and --jobs >= 1")
-    folder = Path(args.folder)
-    config = LoopConfig(options=RunOptions(planner=PlannerConfig(max_time=args.max_time)))
-    try:
-        files = len(task_files(folder))
-    except SuiteError:
-        files = 0
-    total = files * (1 + max(1, args.seeds))
-    with progress_bar(console, "validating", total) as advance:
-        result = validate_folder(
-            folder,
-            config,
-            hash_seeds=tuple(range(args.seeds)),  # 0, 1, ...: HASH_SEEDS by default
-            jobs=args.jobs,
-            progress=lambda _name: advance(),
-        )
-    for note in result.notes:
-        console.print(f"[yellow]note[/]: {note}", highlight=False, soft_wrap=True)
-    for issue in result.issues:
-        console.print(f"[bold red]error[/]: {issue}", highlight=False, soft_wrap=True)
-    if result.replan:
-        failed = sum(v != "success" for v in result.replan.values())
-        console.print(
-            f"replan (the task goal restated) fails {failed} of {len(result.replan)} tasks: "
-            + ", ".join(f"{t} {v}" for t, v in sorted(result.replan.items())),
-            highlight=False,
-            soft_wrap=True,
-        )
-    if result.ok:
-        console.print(f"[bold green]ok[/]: {len(result.tasks)} task files in {folder}")
-        return 0
-    console.print(f"{len(result.issues)} problem(s) in {result.checked} task files")
-    return 1
-
-
 QUICK_TASKS = ("ol01-table2", "ab06-sink-mug", "sc06-apple-frozen-stove")  # bench all --quick
 
 
@@ -849,26 +792,16 @@ BENCHMARK = Bench(
     _in_all,
 )
 
-VALIDATE_DATA = Bench(
-    "validate-data",
-    "check the household suite's task files",
-    add_validate_arguments,
-    validate_command,
-    lambda config: None if config.quick else config.jobs_argv(),
-)
-
 __all__ = [
     "BENCHMARK",
     "ORACLE",
     "QUICK_TASKS",
     "REPLAN",
-    "VALIDATE_DATA",
     "Cell",
     "Payload",
     "PromptingConfig",
     "Report",
     "add_arguments",
-    "add_validate_arguments",
     "build_llm",
     "command",
     "jobs_for",
@@ -878,5 +811,4 @@ __all__ = [
     "run_job",
     "run_prompting",
     "summarise",
-    "validate_command",
 ]
