@@ -17,6 +17,7 @@ from llmpas.experiments.effective import (
     EffectiveSetError,
     parse_set,
 )
+from llmpas.fields import Fields
 from llmpas.inputs import TOML_LIMIT, decode_text, parse_toml, read_bytes
 from llmpas.language.errors import PddlSyntaxError
 from llmpas.language.sexpr import SList, Sym, parse_all
@@ -148,14 +149,8 @@ def task_from_dict(
     rest = {k: v for k, v in data.items() if k != "judge"}
     if "judge" not in data:
         raise SuiteError(f"{source}: judge: missing (required): category, l_gt")
-    judge_table = data["judge"]
-    if not isinstance(judge_table, Mapping):
-        raise SuiteError(f"{source}: judge: must be a table")
-    for key in judge_table:
-        if key not in JUDGE_FIELDS:
-            raise SuiteError(
-                f"{source}: judge.{key}: unknown field; fields: {', '.join(JUDGE_FIELDS)}"
-            )
+    fields = Fields(source, SuiteError)  # the scenario parser's readers
+    judge_table = fields.table(data["judge"], "judge", JUDGE_FIELDS)
     try:
         scenario = Scenario.from_dict(rest, source=source)
     except ScenarioError as e:
@@ -182,16 +177,11 @@ def task_from_dict(
     if not isinstance(success, str):
         raise SuiteError(f"{source}: judge.success: must be PDDL text, got {success!r}")
     _success_formula(success, source, _known_names(scenario))
-    effective = judge_table.get("effective", [])
-    if not isinstance(effective, list) or not all(isinstance(e, str) for e in effective):
-        raise SuiteError(
-            f"{source}: judge.effective: must be an array of PDDL conjunctions, got {effective!r}"
-        )
-    measures_llm = judge_table.get("measures_llm", False)
-    if not isinstance(measures_llm, bool):
-        raise SuiteError(
-            f"{source}: judge.measures_llm: must be true or false, got {measures_llm!r}"
-        )
+    effective = [
+        fields.string(e, f"judge.effective[{i}]")
+        for i, e in enumerate(fields.array(judge_table.get("effective", []), "judge.effective"))
+    ]
+    measures_llm = fields.boolean(judge_table.get("measures_llm", False), "judge.measures_llm")
     return SuiteTask(
         scenario.name,
         category,
