@@ -221,3 +221,14 @@ def test_wild_outputs_are_refused_in_one_line() -> None:
     )
     with pytest.raises(PlannerError, match=r"WildOutput .* is not supported"):
         solve(pds, max_time=30)
+
+
+def test_init_values_of_undeclared_functions_are_ignored_once(caplog) -> None:
+    """PDDLStream accepts ``Equal(('Cost',), 1)`` in init when the domain declares no ``Cost``
+    (its continuous_tamp/idtmp example): said to be ignored, and the task plans."""
+    pds = problem([("Obj", "x"), Equal(("Cost",), 1), Equal(("Cost",), 1)], ("Done", "x"))
+    with caplog.at_level(logging.WARNING):
+        plan, cost, _ = solve(pds, max_time=30)
+    assert plan is not None and cost == 1
+    said = [r.getMessage() for r in caplog.records if "(= (cost ...) ...)" in r.getMessage()]
+    assert len(said) == 1 and "declares no such function" in said[0]

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from llmpas.language.errors import BindingError
+from llmpas.language.logic import Atom
 from llmpas.language.streams import FunctionSchema, StreamSchema, StreamSpec
 
 
@@ -116,6 +117,14 @@ class BoundStream:
     @property
     def info(self) -> StreamInfo:
         return self.impl.info
+
+    def fluent_arguments(
+        self, facts: Iterable[Atom], values: Mapping[str, Any]
+    ) -> list[tuple[Any, ...]]:
+        """What a stream with ``:fluents`` gets as ``fluents`` for these facts, as PDDLStream
+        gives them: tuples ``(predicate, value, ...)`` of the objects' Python values (an
+        object without one stands for itself: its name), sorted by fact."""
+        return [(a.predicate, *(values.get(x, x) for x in a.args)) for a in sorted(facts)]
 
     def outputs(
         self, inputs: tuple[Any, ...], fluents: Iterable[Any] = ()

@@ -25,6 +25,8 @@ from llmpas.pddlstream.translate import Translation, Unsupported, translate
 from llmpas.pddlstream.wrappers import Notes
 from llmpas.planning import PlannerConfig, PlanResult, PlanStatus
 from llmpas.planning import solve as plan
+from llmpas.planning.fluents import unsupported_fluents
+from llmpas.planning.instances import negative_test_predicates
 
 log = logging.getLogger(__name__)
 
@@ -113,6 +115,11 @@ def solve(
     )
     started = _cpu()
     tr = translate(problem, stream_info, unit_costs=unit_costs, notes=ctx.notes)
+    refused = unsupported_fluents(
+        tr.problem, config.algorithm, negated=negative_test_predicates(tr.problem)
+    )
+    if refused is not None:
+        raise Unsupported(refused)
     result = plan(tr.problem, config)
     solution = solution_of(tr, result, unit_costs, problem.init)
     attempt = Attempt(tr, result, solution, _cpu() - started, unit_costs)

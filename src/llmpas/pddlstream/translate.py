@@ -127,14 +127,16 @@ def translate(
     naming = Naming(given, constants)
     atoms, costs = _init(init, naming)
     domain = _declare_extra_facts(domain, spec, atoms)
+    computed = {f.name for f in spec.functions}
+    for term in sorted((t for t in costs if t.name not in domain.functions), key=str):
+        if term.name not in computed:  # PDDLStream accepts values no action reads
+            del costs[term]
+            notes.ignored(
+                f"init (= ({term.name} ...) ...)",
+                "the domain declares no such function (no action reads it)",
+            )
     goal_f = _formula(goal, naming, frozenset(), "goal")
     implementations = _implementations(spec, stream_map, stream_info or {}, notes)
-    for s in spec.streams:  # fluent facts reach the user's code with values, as in PDDLStream
-        if s.fluents and s.name in implementations:
-            impl = implementations[s.name]
-            implementations[s.name] = dataclasses.replace(
-                impl, fn=_FluentValues(impl.fn, naming.values)
-            )
     bs, bf = bind(spec, implementations)
     objects = dict(naming.values)
     for c in constants - objects.keys():
@@ -286,22 +288,6 @@ def _formula(expr: Any, naming: Naming, scope: frozenset[str], where: str) -> Fo
         return naming.name(a)
 
     return Atom(head, tuple(term(a) for a in rest))
-
-
-@dataclass(frozen=True)
-class _FluentValues:
-    """A stream with ``:fluents``: its ``fluents`` as PDDLStream gives them, tuples
-    ``('atpose', value, ...)`` (llmpas passes atoms of names)."""
-
-    fn: Any
-    values: Mapping[str, Any]
-
-    def __call__(self, *inputs: Any, fluents: Iterable[Any] = ()) -> Any:
-        facts = [
-            (a.predicate, *(self.values.get(x, x) for x in a.args)) if isinstance(a, Atom) else a
-            for a in fluents
-        ]
-        return self.fn(*inputs, fluents=facts)
 
 
 def _implementations(

@@ -8,6 +8,10 @@ without outputs) and external ``:predicate`` s on every instance of their domain
 facts, rules likewise; costs by calling the ``:function`` s on the values each step uses. The
 planner's own test results and costs are not used. The goal must hold at the end and the
 replayed cost must equal the reported one.
+
+Streams with ``:fluents`` are checked per step: a fact a fluent sampler certified holds only in
+the states whose fluent facts are those it was certified with (the plan records them), and a
+fluent test is called again with the fluent facts of each state it may matter in.
 """
 
 from __future__ import annotations
@@ -18,9 +22,10 @@ from dataclasses import dataclass
 from typing import Any
 
 from llmpas.language.bindings import BoundStream
-from llmpas.language.logic import Atom, FuncTerm
+from llmpas.language.errors import ModelError
+from llmpas.language.logic import Atom, Formula, FuncTerm
 from llmpas.language.problem import Problem
-from llmpas.language.semantics import Semantics, replay
+from llmpas.language.semantics import Replay, Semantics, replay
 from llmpas.pddlstream.solving import Attempt
 from llmpas.planning.result import Plan
 
@@ -47,15 +52,21 @@ def validate(attempt: Attempt) -> Validation:
         return Validation(False, "no plan")
     problem = attempt.translation.problem
     values = {**problem.objects, **{k: v for k, v in plan.objects.items() if v is not None}}
-    facts = set(problem.init) | _sampled(problem, plan)
+    fluent = _fluent_streams(problem)
+    facts = set(problem.init) | _sampled(problem, plan, fluent)
     raised: list[str] = []
-    facts |= recomputed(problem, facts, values, raised)
-    names = set(values) | {t for a in facts for t in a.args}
+    facts |= recomputed(problem, facts, values, raised, skip=set(fluent))
+    names = set(values) | {t for a in facts | plan.fluent_facts.keys() for t in a.args}
     costs = _Costs(problem, values)
     sem = Semantics(problem.domain, dict.fromkeys(names, "object"), costs)
     steps = [(s.action, s.args) for s in plan.steps]
     try:
-        result = replay(sem, facts, steps, problem.goal)
+        if fluent:
+            result = _InContext(sem, fluent, plan, values, raised).replay(
+                facts, steps, problem.goal
+            )
+        else:
+            result = replay(sem, facts, steps, problem.goal)
     except Exception as e:  # a function that raises or answers no number
         return Validation(False, f"replay: {type(e).__name__}: {e}")
     if not result.valid:
@@ -69,21 +80,129 @@ def validate(attempt: Attempt) -> Validation:
     return Validation(True, "ok", cost)
 
 
-def _sampled(problem: Problem, plan: Plan) -> set[Atom]:
-    """The plan's certified facts of predicates that a stream with outputs certifies."""
-    sampled = {a.predicate for s in problem.streams.streams if s.outputs for a in s.certified}
+def _fluent_streams(problem: Problem) -> dict[str, BoundStream]:
+    return {
+        n: b
+        for n, b in problem.bound_streams.items()
+        if b.schema.fluents and b.schema.kind == "stream"
+    }
+
+
+def _sampled(problem: Problem, plan: Plan, fluent: Mapping[str, BoundStream]) -> set[Atom]:
+    """The plan's certified facts of predicates that a stream with outputs and without
+    ``:fluents`` certifies."""
+    sampled = {
+        a.predicate
+        for s in problem.streams.streams
+        if s.outputs and s.name not in fluent
+        for a in s.certified
+    }
     return {a for a in plan.certified if a.predicate in sampled}
 
 
+class _InContext:
+    """A replay in which the facts of fluent streams hold only where their context does."""
+
+    def __init__(
+        self,
+        sem: Semantics,
+        fluent: Mapping[str, BoundStream],
+        plan: Plan,
+        values: Mapping[str, Any],
+        raised: list[str],
+    ) -> None:
+        self.sem, self.fluent, self.plan, self.values, self.raised = (
+            sem,
+            fluent,
+            plan,
+            values,
+            raised,
+        )
+        self.tests: dict[tuple[str, tuple[str, ...], frozenset[Atom]], bool] = {}
+
+    def _context(self, base: set[Atom], b: BoundStream) -> frozenset[Atom]:
+        preds = set(b.schema.fluents)
+        facts = self.sem.closure(base).facts if preds & self.sem.domain.derived_names else base
+        return frozenset(a for a in facts if a.predicate in preds)
+
+    def facts(self, base: set[Atom]) -> set[Atom]:
+        """The fluent streams' facts that hold in the state of ``base`` facts."""
+        out: set[Atom] = set()
+        for b in (self.fluent[n] for n in sorted(self.fluent)):
+            ctx = self._context(base, b)
+            preds = {a.predicate for a in b.schema.certified}
+            if b.schema.outputs:
+                out |= {
+                    a
+                    for a, contexts in self.plan.fluent_facts.items()
+                    if a.predicate in preds and ctx in contexts
+                }
+                continue
+            for env in _bindings(b.schema.domain, base | out):
+                args = tuple(env[v] for v in b.schema.inputs)
+                if self._test(b, args, ctx):
+                    out |= {
+                        Atom(a.predicate, tuple(env.get(t, t) for t in a.args))
+                        for a in b.schema.certified
+                    }
+        return out
+
+    def _test(self, b: BoundStream, args: tuple[str, ...], ctx: frozenset[Atom]) -> bool:
+        key = (b.schema.name, args, ctx)
+        if key not in self.tests:
+            fluents = b.fluent_arguments(ctx, self.values)
+            inputs = tuple(self.values.get(a, a) for a in args)
+            try:
+                self.tests[key] = next(iter(b.outputs(inputs, fluents)), None) is not None
+            except Exception as e:  # the user's code, on an instance it may not expect
+                self.raised.append(f"{b.schema.name}({' '.join(args)}): {type(e).__name__}: {e}")
+                self.tests[key] = False
+        return self.tests[key]
+
+    def replay(
+        self, init: set[Atom], steps: list[tuple[str, tuple[str, ...]]], goal: Formula
+    ) -> Replay:
+        sem = self.sem
+        base = set(init)
+        states = [frozenset(base)]
+        total = 0.0
+        for i, (name, args) in enumerate(steps):
+            extra = self.facts(base) - base
+            state = sem.state(base | extra)
+            try:
+                action = sem.domain.action(name)
+                ok = sem.applicable(action, args, state)
+            except ModelError as e:
+                return Replay(False, f"step {i + 1}: {e}", total, tuple(states), i)
+            if not ok:
+                msg = f"step {i + 1}: precondition of ({name} {' '.join(args)}) does not hold"
+                return Replay(False, msg, total, tuple(states), i)
+            new, c = sem.apply(action, args, state)
+            base = new - extra
+            total += c
+            states.append(frozenset(base))
+        if not sem.holds(goal, base | self.facts(base)):
+            return Replay(False, "the goal does not hold after the last step", total, tuple(states))
+        return Replay(True, "ok", total, tuple(states))
+
+
 def recomputed(
-    problem: Problem, facts: set[Atom], values: Mapping[str, Any], raised: list[str]
+    problem: Problem,
+    facts: set[Atom],
+    values: Mapping[str, Any],
+    raised: list[str],
+    skip: set[str] | None = None,
 ) -> set[Atom]:
     """Facts of tests, external predicates and rules, computed on ``values`` until nothing
     new holds (at most :data:`MAX_ROUNDS` rounds). A call that raises certifies nothing (the
     planner may never have needed that instance); ``raised`` gets what it raised."""
     out: set[Atom] = set()
     done: set[tuple[str, tuple[str, ...]]] = set()
-    tests = [b for b in problem.bound_streams.values() if not b.schema.outputs]
+    tests = [
+        b
+        for b in problem.bound_streams.values()
+        if not b.schema.outputs and b.schema.name not in (skip or set())
+    ]
     for _ in range(MAX_ROUNDS):
         known = facts | out
         new: set[Atom] = set()

@@ -18,8 +18,8 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from llmpas.language.bindings import BoundFunction
-from llmpas.language.domain import Action, Domain, Signature
+from llmpas.language.bindings import BoundFunction, BoundStream
+from llmpas.language.domain import Action, Derived, Domain, Signature
 from llmpas.language.logic import (
     And,
     Atom,
@@ -44,6 +44,7 @@ from llmpas.language.semantics import State, nnf
 from llmpas.language.streams import StreamSchema
 from llmpas.planning.downward import ClassicalTask
 from llmpas.planning.externals import external_rewrite
+from llmpas.planning.fluents import block_uses, fluent_additions
 from llmpas.planning.instances import (
     OptInstance,
     StreamFailure,
@@ -229,11 +230,16 @@ def _inline(act: Action, schemas: list[StreamSchema]) -> tuple[Action, tuple[Inl
 
 
 def compile_domain(
-    problem: Problem, negative_tests: set[str], inline: frozenset[str] = frozenset()
+    problem: Problem,
+    negative_tests: set[str],
+    inline: frozenset[str] = frozenset(),
+    fluent: Mapping[str, BoundStream] | None = None,
 ) -> CompiledDomain:
     """The domain as Fast Downward gets it; the same for every iteration of a planning run.
 
-    Streams in ``inline`` (see :func:`inlinable_streams`) are compiled into the actions."""
+    Streams in ``inline`` (see :func:`inlinable_streams`) are compiled into the actions. The
+    uses of what the ``fluent`` streams certify get their blocks (:mod:`.fluents`)."""
+    fluent = fluent or {}
     d = problem.domain
     unit = not d.uses_costs()
     schemas = [problem.bound_streams[n].schema for n in sorted(inline)]
@@ -247,11 +253,14 @@ def compile_domain(
         actions.append(
             replace(
                 new,
-                precondition=_rewrite(new.precondition, negative_tests, ext),
+                precondition=block_uses(_rewrite(new.precondition, negative_tests, ext), fluent),
                 effects=_effects(new.effects, negative_tests, ext, unit),
             )
         )
-    derived = tuple(replace(x, body=_rewrite(x.body, negative_tests, ext)) for x in d.derived)
+    derived = tuple(
+        replace(x, body=block_uses(_rewrite(x.body, negative_tests, ext), fluent))
+        for x in d.derived
+    )
     certified = problem.streams.certified_predicates
     preds = [Signature(name, _vars(arity)) for name, arity in certified.items()]
     # every test's rejections are declared, however (or whether) the domain uses its predicate
@@ -259,8 +268,12 @@ def compile_domain(
         Signature(rejected_predicate(p), _vars(certified[p]))
         for p in sorted(problem.streams.test_predicates)
     ]
+    extra: list[Derived] = []
+    if fluent:
+        more, extra = fluent_additions(d, fluent)
+        preds += more
     out = replace(d, actions=tuple(actions), derived=derived, undeclared={}).with_additions(
-        predicates=preds
+        predicates=preds, derived=extra
     )
     return CompiledDomain(out, out.to_pddl(), inlined)
 

@@ -68,12 +68,15 @@ class PlannerConfig:
     - ``anytime``: the same first plan, then searches bounded by the incumbent's cost (weighted
       A* with w = 5, 3, 2, 1, then A* on h^max); each cheaper plan has its streams evaluated and
       is replayed before it replaces the incumbent, and is logged and listed in
-      :attr:`~llmpas.planning.result.PlanResult.improvements` with its time and cost. It stops
+      :attr:`~llmpas.planning.result.PlanResult.improvements` with its time and cost. After
+      each new incumbent, the searches first assume streams only on real values (the quality's
+      ``improve_depth``), and go back to ``max_level`` once nothing cheaper is found. It stops
       when ``patience`` iterations in a row bring no cheaper plan, when no cheaper plan exists
       even optimistically, or at a limit (``max_time``, ``max_iterations``, ``max_stream_calls``):
       the incumbent is then returned as solved, the limit named in the message.
     - ``optimal``: A* on h^max in every search; once a plan is realised, A* bounded by its cost
-      searches again with the real values until nothing cheaper is found: the cheapest plan
+      searches again with the real values (first on real values only, as ``anytime``) until
+      nothing cheaper is found: the cheapest plan
       for the samples drawn, not over the continuous space.
 
     The default is ``fast``, from one run of ``llmpas bench tamp --modes computed --qualities

@@ -38,6 +38,7 @@ from llmpas.language.logic import (
 from llmpas.language.problem import Problem, ValueNamer
 from llmpas.language.semantics import Evaluator, State, Universe, nnf
 from llmpas.planning.externals import external_rewrite
+from llmpas.planning.fluents import CONTEXT_OBJECT
 
 log = logging.getLogger(__name__)
 
@@ -69,17 +70,23 @@ class Record:
     outputs: list[tuple[str, ...]] = field(default_factory=list)
     exhausted: bool = False
     enabled: bool = True  # focused: disabled after a call until a search fails
+    #: a fluent stream's context: the fluent facts it is called with (None: not a fluent record)
+    fluents: frozenset[Atom] | None = None
 
 
 @dataclass(frozen=True)
 class OptInstance:
-    """An instance in the optimistic closure: inputs may themselves be placeholders."""
+    """An instance in the optimistic closure: inputs may themselves be placeholders.
+
+    ``step``: for a fluent stream, the plan step whose state it is evaluated in (a copy of the
+    closure's instance per step; None in the closure)."""
 
     stream: BoundStream
     inputs: tuple[str, ...]
     outputs: tuple[str, ...]
     certified: tuple[Atom, ...]
     level: int
+    step: int | None = None
 
     @property
     def key(self) -> tuple[str, tuple[str, ...]]:
@@ -131,6 +138,17 @@ class StreamStore:
         #: complexity of each real object produced here (others: 0), see :meth:`complexity_of`
         self.complexity: dict[str, int] = {}
         self._given = frozenset(problem.all_objects)
+        #: fluent streams: records per (stream, inputs, context), the real facts they certified
+        #: with the contexts they hold in, and the active blocks (see :mod:`.fluents`)
+        self.fluent_records: dict[tuple[str, tuple[str, ...], frozenset[Atom]], Record] = {}
+        self.fluent_facts: dict[Atom, set[frozenset[Atom]]] = {}
+        #: blocks: in every state with the context's facts, until a search fails (lifted then);
+        #: exact blocks (the instance is exhausted there): in states with exactly those facts,
+        #: for good. Both map (stream, inputs, context) to the context's object ``#cN``.
+        self.blocks: dict[tuple[str, tuple[str, ...], frozenset[Atom]], str] = {}
+        self.exact: dict[tuple[str, tuple[str, ...], frozenset[Atom]], str] = {}
+        self._context_names: dict[tuple[str, tuple[str, ...], frozenset[Atom]], str] = {}
+        self._contexts = itertools.count(1)
 
     def input_complexity(self, inputs: tuple[str, ...]) -> int:
         """The highest complexity of real objects among ``inputs`` (placeholders: see
@@ -152,6 +170,36 @@ class StreamStore:
         if key not in self.records:
             self.records[key] = Record(bound, inputs)
         return self.records[key]
+
+    def fluent_record(
+        self, bound: BoundStream, inputs: tuple[str, ...], fluents: frozenset[Atom]
+    ) -> Record:
+        """The record of a fluent stream's instance in one context."""
+        key = (bound.schema.name, inputs, fluents)
+        if key not in self.fluent_records:
+            self.fluent_records[key] = Record(bound, inputs, fluents=fluents)
+        return self.fluent_records[key]
+
+    def block(self, rec: Record) -> None:
+        """Block a fluent record that failed in its context (until :meth:`unblock`; an
+        exhausted one also exactly there, for good)."""
+        assert rec.fluents is not None
+        key = (rec.bound.schema.name, rec.inputs, rec.fluents)
+        if key not in self._context_names:
+            self._context_names[key] = f"{CONTEXT_OBJECT}{next(self._contexts)}"
+        self.blocks[key] = self._context_names[key]
+        if rec.exhausted:
+            self.exact[key] = self._context_names[key]
+
+    def unblock(self) -> bool:
+        """Lift every block but the exact ones; True when there was any."""
+        had = bool(self.blocks)
+        self.blocks.clear()
+        return had
+
+    def holds_in(self, fact: Atom, fluents: frozenset[Atom]) -> bool:
+        """Whether a fluent stream certified ``fact`` in the context ``fluents``."""
+        return fluents in self.fluent_facts.get(fact, ())
 
     def call(self, rec: Record) -> tuple[str, ...] | None:
         """One more output of the instance (names of new objects), or None when it has none."""
@@ -175,7 +223,7 @@ class StreamStore:
             return None
         if out is None:
             rec.exhausted = True
-            if schema.is_test:
+            if schema.is_test and rec.fluents is None:
                 sub = Substitution(dict(zip(schema.inputs, rec.inputs, strict=True)))
                 self.rejected |= {
                     Atom(rejected_predicate(a.predicate), sub.atom(a).args)
@@ -190,7 +238,11 @@ class StreamStore:
         sub = Substitution(
             dict(zip(schema.inputs + schema.outputs, rec.inputs + names, strict=True))
         )
-        self.facts |= {sub.atom(a) for a in schema.certified}
+        if rec.fluents is None:
+            self.facts |= {sub.atom(a) for a in schema.certified}
+        else:
+            for a in schema.certified:
+                self.fluent_facts.setdefault(sub.atom(a), set()).add(rec.fluents)
         single = rec.bound.impl.kind is Kind.FUNCTION  # a function has one output at most
         if schema.is_test or single or rec.calls >= rec.bound.info.max_outputs:
             rec.exhausted = True
@@ -202,7 +254,8 @@ class StreamStore:
         (checked on every value)."""
         if rec.iterator is None:
             values = tuple(self.values.get(n, n) for n in rec.inputs)
-            fluents = self._fluents(rec.bound)
+            facts = self._fluents(rec.bound) if rec.fluents is None else rec.fluents
+            fluents = rec.bound.fluent_arguments(facts, self.values)
             rec.iterator = rec.bound.samples(values, fluents)
         iterator = rec.iterator
         empty = 0

@@ -15,10 +15,12 @@ cheaper ones while time and patience remain (see :class:`~llmpas.planning.config
 - ``anytime``: the same first plan, then searches bounded by the incumbent's cost, in the
   order of LAMA's iterated search (weighted A* with FF, w = 5, 3, 2, 1), ending with A* on
   h^max; each cheaper plan is realised (its streams evaluated) and replayed before it replaces
-  the incumbent.
+  the incumbent. After each new incumbent, searches first assume streams only on real values
+  (``improve_depth``), then at full depth once nothing cheaper is found there.
 - ``optimal``: A* on h^max (admissible) in every search; once a plan is realised, A* bounded by
   its cost searches the task again with the real values (the optimistic costs that chose the
-  plan were lower bounds), until it finds no cheaper plan. Optimal for the samples drawn, not
+  plan were lower bounds), first on real values only (``improve_depth``), until it finds no
+  cheaper plan. Optimal for the samples drawn, not
   over the continuous space: a stream planner cannot know values it has not sampled.
 
 Both registries are plain mappings: add an entry to add a configuration.
@@ -116,18 +118,30 @@ class Quality:
     ``improve`` is empty when the first plan is returned; otherwise the k-th improvement is
     looked for with ``improve[k]`` (the last one repeats), bounded by the incumbent's cost.
     ``keep_sampling``: when a bounded search finds no cheaper plan, widen the task (new samples,
-    as after any failed search) and go on; otherwise the incumbent is returned then."""
+    as after any failed search) and go on; otherwise the incumbent is returned then.
+
+    ``improve_depth`` (focused planning): after each new incumbent, the next searches assume
+    stream instances only up to this depth (1: only instances whose inputs are all real
+    values), until one finds no cheaper plan; then the depth goes back to ``max_level``. The
+    values already drawn are exploited before placeholders are chained: a plan through a
+    placeholder fed by another placeholder (a sampled pose, then a conf computed from it) is
+    costed with optimistic values (a lower bound, e.g. the fixed part of a distance) and so
+    looks cheaper than plans over the real values, while it rarely is once evaluated. None:
+    every search uses ``max_level``."""
 
     name: str
     first: str
     improve: tuple[str, ...]
     description: str
     keep_sampling: bool = False
+    improve_depth: int | None = None
 
     def __post_init__(self) -> None:
         unknown = [s for s in (self.first, *self.improve) if s not in SEARCHES]
         if unknown:
             raise ValueError(f"quality {self.name!r}: unknown search {unknown[0]!r}")
+        if self.improve_depth is not None and self.improve_depth < 1:
+            raise ValueError(f"quality {self.name!r}: improve_depth must be >= 1 or None")
 
     @property
     def anytime(self) -> bool:
@@ -152,6 +166,7 @@ QUALITIES: Mapping[str, Quality] = MappingProxyType(
                 ("wastar5-ff", "wastar3-ff", "wastar2-ff", "wastar1-ff", "astar-hmax"),
                 "the first plan fast, then cheaper ones while time and patience remain",
                 keep_sampling=True,
+                improve_depth=1,
             ),
             Quality(
                 "optimal",
@@ -159,6 +174,7 @@ QUALITIES: Mapping[str, Quality] = MappingProxyType(
                 ("astar-hmax",),
                 "admissible search (A* on h^max), repeated on the real values until no cheaper "
                 "plan is found",
+                improve_depth=1,
             ),
         )
     }

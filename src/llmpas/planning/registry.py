@@ -31,11 +31,13 @@ _TARGET = re.compile(r"[A-Za-z_][\w.]*:[A-Za-z_]\w*")
 
 @dataclass(frozen=True)
 class Entry:
-    """A registered implementation: ``target`` is ``"package.module:attribute"``."""
+    """A registered implementation: ``target`` is ``"package.module:attribute"``;
+    ``supports``: what it can do beyond the basics (an algorithm: ``fluents``, fluent streams)."""
 
     name: str
     target: str
     description: str
+    supports: frozenset[str] = frozenset()
 
     def __post_init__(self) -> None:
         if not _NAME.fullmatch(self.name):
@@ -58,6 +60,7 @@ ALGORITHMS: Mapping[str, Entry] = _table(
         "focused",
         "llmpas.planning.tamp:plan_focused",
         "optimistic stream instances, evaluated only where a plan needs them (adaptive)",
+        supports=frozenset({"fluents"}),
     ),
     Entry(
         "incremental",

@@ -59,10 +59,14 @@ class Plan:
     # deferred stream instances in the order they are needed, with what they certify
     deferred: tuple[StreamInstance, ...] = ()
     deferred_facts: Mapping[StreamInstance, tuple[Atom, ...]] = field(default_factory=dict)
+    # facts of streams with ``:fluents`` the plan relies on (also in ``certified``), each with
+    # the contexts (fluent facts) it was certified in: it holds only in states with those facts
+    fluent_facts: Mapping[Atom, frozenset[frozenset[Atom]]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "objects", MappingProxyType(dict(self.objects)))
         object.__setattr__(self, "deferred_facts", MappingProxyType(dict(self.deferred_facts)))
+        object.__setattr__(self, "fluent_facts", MappingProxyType(dict(self.fluent_facts)))
         if self.cost < 0:
             raise ValueError(f"plan cost must be >= 0, got {self.cost}")
 
@@ -92,15 +96,25 @@ class PlanStats:
 @dataclass(frozen=True, eq=False)
 class Improvement:
     """A plan found while planning, cheaper than every one before it: when (wall and CPU
-    seconds since the call started; CPU counts the Fast Downward children) and what it costs."""
+    seconds since the call started; CPU counts the Fast Downward children; and in counts:
+    the iteration and the stream calls so far) and what it costs."""
 
     time: float
     cpu: float
     cost: float
     plan: Plan
+    iteration: int = 0  # the planning-loop iteration in which it became the incumbent
+    stream_calls: int = 0  # stream calls made until then
 
     def to_json(self) -> dict[str, float]:
-        return {"time": self.time, "cpu": self.cpu, "cost": self.cost, "length": len(self.plan)}
+        return {
+            "time": self.time,
+            "cpu": self.cpu,
+            "cost": self.cost,
+            "length": len(self.plan),
+            "iteration": self.iteration,
+            "stream_calls": self.stream_calls,
+        }
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,14 @@ needs no unevaluated stream.
 Plan quality (:mod:`~llmpas.planning.quality`): the config's quality names the search for the
 first plan and, for ``anytime``, the searches bounded by the incumbent's cost that look for
 cheaper plans afterwards; a cheaper optimistic plan becomes the incumbent only once its streams
-are evaluated and it replays over the real values (:func:`_realize`).
+are evaluated and it replays over the real values (:func:`_realize`). After a new incumbent,
+the optimistic closure first stops at the quality's ``improve_depth`` (streams on real values
+only), and goes back to full depth once a search there finds nothing cheaper.
+
+Streams with ``:fluents`` (focused only; :mod:`~llmpas.planning.fluents`): a plan's instance of
+one is evaluated per step that uses it, after the plan's other streams, with the fluent facts of
+the state before that step; its facts hold only in that context, and a failure blocks it in the
+states where the context's facts hold.
 
 In both, *deferred* streams are never evaluated here: the plan keeps their placeholders and lists,
 per action, the deferred instances the executor must satisfy.
@@ -29,6 +36,7 @@ import logging
 import resource
 import time
 from collections import Counter
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 from llmpas.language.bindings import BoundStream
@@ -53,6 +61,13 @@ from llmpas.planning.downward import (
     ClassicalStatus,
     PlannerNotFound,
     TaskPlanner,
+)
+from llmpas.planning.fluents import (
+    block_facts,
+    certified_by_fluent,
+    context,
+    fluent_streams,
+    unsupported_fluents,
 )
 from llmpas.planning.guards import guard_quantifiers
 from llmpas.planning.instances import (
@@ -108,6 +123,12 @@ class Run:
     improvements: list[Improvement] = field(default_factory=list)
     idle: int = 0  # anytime: iterations since the last cheaper plan
     planners: dict[str, ClassicalPlanner] = field(default_factory=dict)  # by search string
+    fluent: dict[str, BoundStream] = field(default_factory=dict)  # evaluated fluent streams
+    depth: int | None = None  # focused: the closure's depth near a new incumbent (None: max)
+
+    @property
+    def fluent_by_predicate(self) -> dict[str, str]:
+        return certified_by_fluent(self.fluent)
 
     @property
     def quality(self) -> Quality:
@@ -181,8 +202,14 @@ class Run:
         best = self.incumbent
         if best is None or plan.cost < best.cost:
             wall, cpu = time.perf_counter() - self.started, _cpu() - self.started_cpu
-            self.improvements.append(Improvement(wall, cpu, plan.cost, plan))
+            calls = self.store.calls.total()
+            self.improvements.append(
+                Improvement(wall, cpu, plan.cost, plan, self.iterations, calls)
+            )
             self.idle = 0
+            depth = self.quality.improve_depth  # read by focused planning (its closure)
+            if depth is not None:
+                self.depth = depth if depth < self.config.max_level else None
             log.info(
                 "plan %d: cost %g, %d steps, after %.2f s (%.2f s CPU)",
                 len(self.improvements), plan.cost, len(plan), wall, cpu,
@@ -253,6 +280,12 @@ def _solve_once(
         b.schema.name for b in problem.bound_streams.values() if config.defer and b.info.deferred
     )
     inline = inlinable_streams(problem, assumed)
+    refused = unsupported_fluents(problem, config.algorithm, assumed, negative)
+    if refused is not None:
+        return PlanResult(
+            PlanStatus.ERROR, None, PlanStats(config.algorithm, config.quality), refused
+        )
+    fluent = fluent_streams(problem, assumed)
     run = Run(
         problem,
         config,
@@ -260,12 +293,13 @@ def _solve_once(
         StreamStore(
             problem, started + config.max_time, config.max_stream_calls, config.max_empty_samples
         ),
-        compile_domain(problem, negative, inline),
+        compile_domain(problem, negative, inline, fluent),
         negative,
         assumed,
         started,
         inline=inline,
         started_cpu=_cpu(),
+        fluent=fluent,
     )
     run.domain_text = guard_quantifiers(run.compiled.domain).to_pddl()
     try:
@@ -296,15 +330,8 @@ def plan_focused(run: Run) -> PlanResult:
         evaluate_negative_tests(store, _negative_streams(run))
         if store.out_of_time():
             return _time_limit(run)
-        closure = Closure(run.complexity_limit, run.evidence)
-        opt = optimistic_instances(
-            store,
-            run.instantiated,
-            run.config.max_level,
-            shared=lambda b: run.config.share_placeholders and not run.deferred(b),
-            closure=closure,
-        )
-        _update_costs(run, opt)
+        depth = run.depth
+        closure, opt = _closure(run)
         if evaluated is not None:
             realized = _realize(run, evaluated, opt)
             if realized is not None:
@@ -312,9 +339,15 @@ def plan_focused(run: Run) -> PlanResult:
                 done = run.accept(realized)
                 if done is not None:
                     return done
+                if run.depth != depth:  # a new incumbent: search near it first
+                    closure, opt = _closure(run)
         found = _search(run, opt)
         if isinstance(found, PlanResult):
             return found
+        if found is None and run.depth is not None:  # nothing cheaper near it: full depth
+            log.debug("iteration %d: no cheaper plan at depth %d", run.iterations, run.depth)
+            run.depth = None
+            continue
         if found is None:  # no plan (no cheaper plan) even with every enabled instance assumed
             if run.incumbent is not None and not run.quality.keep_sampling:
                 return run.result(PlanStatus.UNSOLVABLE, _unsolvable_message(run))
@@ -325,13 +358,30 @@ def plan_focused(run: Run) -> PlanResult:
         per_step, trace = _replayed(_retrace(run, actions, opt))
         needed = [i for insts in per_step for i in insts if not run.deferred(i.stream)]
         if not needed:
-            done = run.accept(_final_plan(run, actions, per_step, cost))
+            done = run.accept(_final_plan(run, actions, per_step, cost, trace))
             if done is not None:
                 return done
             continue
+        # fluent streams last, step by step: their contexts need the plan's real values
+        needed = [i for i in needed if i.step is None] + [i for i in needed if i.step is not None]
         real = _evaluate(run, needed, trace)
         evaluated = _Evaluated(actions, [i for insts in per_step for i in insts], trace, real)
     return _iteration_limit(run)
+
+
+def _closure(run: Run) -> tuple[Closure, list[OptInstance]]:
+    """The optimistic closure for the next search (within the complexity limit, and the
+    depth of an improving search), with the function values it needs."""
+    closure = Closure(run.complexity_limit, run.evidence)
+    opt = optimistic_instances(
+        run.store,
+        run.instantiated,
+        run.config.max_level if run.depth is None else run.depth,
+        shared=lambda b: run.config.share_placeholders and not run.deferred(b),
+        closure=closure,
+    )
+    _update_costs(run, opt)
+    return closure, opt
 
 
 def _time_limit(run: Run, where: str = "") -> PlanResult:
@@ -389,11 +439,13 @@ def _widen(run: Run, closure: Closure) -> bool:
 
 
 def _reenable(store: StreamStore) -> bool:
-    """Re-enable every called, non-exhausted instance; True when any was disabled."""
+    """Re-enable every called, non-exhausted instance and lift the blocks of fluent streams;
+    True when any was disabled or blocked."""
     disabled = [r for r in store.records.values() if not r.enabled and not r.exhausted]
     for r in disabled:
         r.enabled = True
-    return bool(disabled)
+    unblocked = store.unblock()
+    return bool(disabled) or unblocked
 
 
 def _evaluate(run: Run, needed: list[OptInstance], trace: _Trace) -> dict[int, dict[str, str]]:
@@ -404,14 +456,16 @@ def _evaluate(run: Run, needed: list[OptInstance], trace: _Trace) -> dict[int, d
     When an instance fails (a test rejects, a function finds nothing), the plan's skeleton is
     kept and the binding is searched further, as PDDLStream's adaptive algorithm does: the most
     recently evaluated sampler upstream of the failure draws a new value and only what depends
-    on it is evaluated again, at most ``_RETRIES`` times per failed instance."""
+    on it is evaluated again, at most ``_RETRIES`` times per failed instance. For a fluent
+    stream, the samplers of the values in its context (where the plan put things before) are
+    upstream too, and each retry takes the next one back."""
     binder = _Binder(run, needed, trace)
     position, retries = 0, Counter[int]()
     while position < len(needed):
         if binder.bind(position) or retries[position] >= _RETRIES:
             position += 1
         else:
-            back = binder.backtrack(position)
+            back = binder.backtrack(position, retries[position])
             if back is None:
                 position += 1
             else:
@@ -433,6 +487,8 @@ class _Binder:
         self.position = {id(inst): k for k, inst in enumerate(needed)}
         self.real: dict[int, dict[str, str]] = {}  # id(evaluated instance) -> placeholder -> real
         self.fresh: set[int] = set()  # instances to call for a new value (backtracked to)
+        self.fluent_failed = False  # a fluent stream failed: the later ones are not evaluated
+        self.contexts: dict[int, frozenset[Atom]] = {}  # id(fluent copy) -> its last context
 
     def _inputs(self, inst: OptInstance) -> tuple[str, ...]:
         sources = self.trace.sources.get(id(inst), {})
@@ -449,6 +505,8 @@ class _Binder:
         inputs = self._inputs(inst)
         if any(is_optimistic(x) for x in inputs):
             return False  # a producer failed
+        if inst.step is not None:
+            return self._bind_fluent(inst, inputs)
         store = self.run.store
         rec = store.record(inst.stream, inputs)
         out = store.call(rec)
@@ -462,20 +520,83 @@ class _Binder:
         self.real[id(inst)] = dict(zip(inst.outputs, out, strict=True))
         return True
 
-    def backtrack(self, k: int) -> int | None:
+    def _bind_fluent(self, inst: OptInstance, inputs: tuple[str, ...]) -> bool:
+        """Evaluate a fluent stream's instance in the state before its step (the plan's real
+        values up to there): an output it gave in that context before is used again; a
+        failure blocks the instance in that context."""
+        if self.fluent_failed:
+            return False
+        fluents = self._context_at(inst)
+        if fluents is None:
+            return False  # a step before it has no real values
+        self.contexts[id(inst)] = fluents
+        store = self.run.store
+        rec = store.fluent_record(inst.stream, inputs, fluents)
+        out = rec.outputs[-1] if rec.outputs else store.call(rec)
+        log.debug(
+            "  %s(%s) at step %s with %d fluent facts -> %s",
+            inst.stream.schema.name, " ".join(inputs), inst.step, len(fluents), out,
+        )  # fmt: skip
+        if out is None:
+            store.block(rec)
+            self.fluent_failed = True
+            return False
+        self.real[id(inst)] = dict(zip(inst.outputs, out, strict=True))
+        return True
+
+    def _context_at(self, inst: OptInstance) -> frozenset[Atom] | None:
+        """The fluent facts of ``inst``'s stream before its step, the steps before it applied
+        with their real arguments (placeholders of deferred streams kept); None when one of
+        those arguments has no real value."""
+        run, trace = self.run, self.trace
+        assert inst.step is not None
+        sem = Semantics(
+            run.compiled.domain,
+            dict.fromkeys(run.store.values, "object") | dict(run.problem.object_types),
+            run.costs,
+            strict_costs=False,
+        )
+        facts = set(run.store.facts) | run.store.rejected
+        for j in range(inst.step):
+            name, args = trace.actions[j]
+            sources = trace.arg_sources[j]
+            real = []
+            for x in args:
+                src = sources.get(x)
+                if src is None:
+                    real.append(x)
+                    continue
+                got = self.real.get(id(src), {}).get(x)
+                if got is None and not run.deferred(src.stream):
+                    return None
+                real.append(x if got is None else got)
+            facts, _ = sem.apply(sem.domain.action(name), tuple(real), sem.state(facts))
+        return _context(sem, facts, inst.stream.schema.fluents)
+
+    def backtrack(self, k: int, attempt: int = 0) -> int | None:
         """After ``needed[k]`` failed: the position of the latest sampler upstream of it that
-        may give another value, with everything depending on that sampler unbound; None if
-        there is none."""
-        upstream = self._upstream(self.needed[k])
+        may give another value (for a fluent stream, the ``attempt``-th latest, round), with
+        everything depending on that sampler unbound; None if there is none."""
+        failed = self.needed[k]
+        upstream = self._upstream(failed)
+        candidates: list[tuple[int, Record]] = []
         for j in sorted((self.position[i] for i in upstream), reverse=True):
             inst = self.needed[j]
             rec = self.run.store.records.get((inst.stream.schema.name, self._inputs(inst)))
-            if not inst.outputs or rec is None or rec.exhausted:
-                continue
-            if not self._worth_retrying(self.needed[k], inst, rec):
+            if inst.outputs and rec is not None and not rec.exhausted:
+                candidates.append((j, rec))
+        if failed.step is not None and candidates:
+            candidates = candidates[attempt % len(candidates) :][:1]
+        for j, rec in candidates:
+            inst = self.needed[j]
+            if not self._worth_retrying(failed, inst, rec):
                 return None
             for dependent in (*self._downstream(inst), id(inst)):
                 self.real.pop(dependent, None)
+            for later in self.needed:  # fluent contexts may change with the new value
+                if later.step is not None:
+                    self.real.pop(id(later), None)
+            self.fluent_failed = False
             self.fresh.add(id(inst))
             return j
         return None
@@ -504,8 +625,19 @@ class _Binder:
         return True
 
     def _upstream(self, inst: OptInstance) -> set[int]:
+        """The instances of the stream plan whose values ``inst`` depends on: its producers,
+        theirs, and so on; for a fluent stream also the producers of the values in its last
+        context."""
         found: set[int] = set()
         todo = [inst]
+        context = self.contexts.get(id(inst))
+        if context is not None:
+            named = {x for a in context for x in a.args}
+            for other in self.needed:
+                made = self.real.get(id(other), {}).values()
+                if other.step is None and named.intersection(made):
+                    found.add(id(other))
+                    todo.append(other)
         while todo:
             for producer in self.trace.sources.get(id(todo.pop()), {}).values():
                 if id(producer) in self.position and id(producer) not in found:
@@ -563,11 +695,12 @@ def _realize(run: Run, done: _Evaluated, opt: list[OptInstance]) -> Plan | None:
     traced = _retrace(run, tuple(actions), opt)
     if traced is None:
         return None
-    per_step, _ = traced
+    per_step, trace = traced
     if any(not run.deferred(i.stream) for insts in per_step for i in insts):
         return None
     log.debug("iteration %d: the evaluated plan holds with the real values", run.iterations)
-    return _final_plan(run, tuple(actions), per_step, _plan_cost(run, tuple(actions), opt))
+    cost = _plan_cost(run, tuple(actions), opt)
+    return _final_plan(run, tuple(actions), per_step, cost, trace)
 
 
 def _bind(
@@ -584,7 +717,7 @@ def _plan_cost(
     scaled = {t: float(max(0, round(v * COST_SCALE))) for t, v in run.costs.items()}
     sem = Semantics(run.compiled.domain, _object_types(run, opt), scaled)
     init = run.store.facts | run.store.rejected | {a for i in opt for a in i.certified}
-    return replay(sem, init, actions).cost
+    return replay(sem, init | run.store.fluent_facts.keys(), actions).cost
 
 
 # -------------------------------------------------------------------------------- incremental
@@ -609,8 +742,8 @@ def plan_incremental(run: Run) -> PlanResult:
             return found
         if found is not None:
             actions, cost = found
-            per_step, _ = _replayed(_retrace(run, actions, opt))
-            done = run.accept(_final_plan(run, actions, per_step, cost))
+            per_step, trace = _replayed(_retrace(run, actions, opt))
+            done = run.accept(_final_plan(run, actions, per_step, cost, trace))
             if done is not None:
                 return done
             continue  # anytime: search this level again for a cheaper plan
@@ -664,7 +797,10 @@ def _update_costs(run: Run, opt: list[OptInstance]) -> None:
     store = run.store
     run.costs = function_values(
         run.problem,
-        store.facts | store.rejected | {a for i in opt for a in i.certified},
+        store.facts
+        | store.rejected
+        | store.fluent_facts.keys()
+        | {a for i in opt for a in i.certified},
         run.cost_cache,
         lambda n: store.values.get(n, n),
     )
@@ -679,7 +815,8 @@ def _search(
     store = run.store
     task = compile_task(
         run.problem,
-        {a for a in store.facts | store.rejected if hidden.isdisjoint(a.args)},
+        {a for a in store.facts | store.rejected if hidden.isdisjoint(a.args)}
+        | block_facts(store.blocks, store.exact, hidden),
         opt,
         {t: v for t, v in run.costs.items() if hidden.isdisjoint(t.args)},
         _object_types(run, opt, hidden),
@@ -719,7 +856,7 @@ class _Trace:
     of a placeholder is chosen from the facts its consumer needs: the instance most recently
     chosen that certifies them, else the cheapest lowest-level one that does."""
 
-    def __init__(self, opt: list[OptInstance], real: set[Atom]) -> None:
+    def __init__(self, opt: list[OptInstance], real: set[Atom], fluent: Iterable[str] = ()) -> None:
         ordered = sorted(opt, key=lambda i: (i.level, i.stream.info.expected_cost))
         self.certifiers: dict[Atom, list[OptInstance]] = {}
         self.first: dict[str, OptInstance] = {}
@@ -734,10 +871,19 @@ class _Trace:
         self.chosen: list[OptInstance] = []  # in the order first needed
         self._chosen_ids: set[int] = set()
         self.sources: dict[int, dict[str, OptInstance]] = {}  # id(consumer) -> input -> producer
+        # fluent streams: one copy of an instance per step that needs it (see :mod:`.fluents`)
+        self.fluent = frozenset(fluent)
+        self._k = 0
+        self._copies: dict[tuple[int, int], OptInstance] = {}
+        self._origin: dict[int, OptInstance] = {}
+        self.actions: tuple[tuple[str, tuple[str, ...]], ...] = ()
+        #: per step, the real facts of fluent streams it relies on, certified in its context
+        self.in_context: list[dict[Atom, frozenset[Atom]]] = []
 
-    def step(self, facts: list[Atom], args: tuple[str, ...]) -> list[OptInstance]:
-        """Instances newly needed for a step's (or the goal's) facts and arguments, producers
-        first."""
+    def step(self, k: int, facts: list[Atom], args: tuple[str, ...]) -> list[OptInstance]:
+        """Instances newly needed for step ``k``'s (or the goal's) facts and arguments,
+        producers first."""
+        self._k = k
         out: list[OptInstance] = []
         for a in facts:
             if a in self.certifiers:
@@ -745,8 +891,7 @@ class _Trace:
         sources: dict[str, OptInstance] = {}
         for x in args:
             if x in self.first:
-                sources[x] = producer = self._producer(x, facts)
-                self._need(producer, out)
+                sources[x] = self._need(self._producer(x, facts), out)
         self.arg_sources.append(sources)
         return out
 
@@ -771,18 +916,31 @@ class _Trace:
                 return c
         return self.first[x]
 
-    def _need(self, inst: OptInstance, out: list[OptInstance]) -> None:
+    def _need(self, inst: OptInstance, out: list[OptInstance]) -> OptInstance:
+        """Add ``inst`` (for a fluent stream: its copy for the current step) and its
+        producers; the instance added."""
+        if inst.stream.schema.name in self.fluent:
+            inst = self._copy(inst)
         if id(inst) in self._chosen_ids:
-            return
+            return inst
         self.chosen.append(inst)  # before its producers: guards against cycles
         self._chosen_ids.add(id(inst))
         sources: dict[str, OptInstance] = {}
         for x in inst.inputs:
             if x in self.first:
-                sources[x] = producer = self._producer(x, list(inst.domain))
-                self._need(producer, out)
+                sources[x] = self._need(self._producer(x, list(inst.domain)), out)
         self.sources[id(inst)] = sources
         out.append(inst)
+        return inst
+
+    def _copy(self, inst: OptInstance) -> OptInstance:
+        origin = self._origin.get(id(inst), inst)
+        key = (id(origin), self._k)
+        if key not in self._copies:
+            copy = dataclasses.replace(origin, step=self._k)
+            self._copies[key] = copy
+            self._origin[id(copy)] = origin
+        return self._copies[key]
 
 
 def _retrace(
@@ -792,18 +950,41 @@ def _retrace(
     producers first, each instance listed once (at its first use); None if the plan is not
     valid over the real and optimistic facts."""
     store = run.store
-    trace = _Trace(opt, store.facts)
+    trace = _Trace(opt, store.facts, run.fluent)
+    trace.actions = actions
     sem = Semantics(run.compiled.domain, _object_types(run, opt), run.costs)
-    init = store.facts | store.rejected | set(trace.certifiers)
+    init = store.facts | store.rejected | set(trace.certifiers) | store.fluent_facts.keys()
     support = preimage(sem, init, actions, compile_goal(run.problem, run.negative_tests))
     if support is None:
         return None
+    states = replay(sem, init, actions).states if run.fluent else ()
     trace.wanted = set().union(*support)
     out: list[list[OptInstance]] = []
+    by_predicate = run.fluent_by_predicate
     for k, facts in enumerate(support):
         args = actions[k][1] if k < len(actions) else ()
-        out.append(trace.step(sorted(facts), args))
+        here: dict[Atom, frozenset[Atom]] = {}
+        for a in facts:
+            name = by_predicate.get(a.predicate)
+            if name is None or a not in store.fluent_facts:
+                continue
+            fluents = _context(sem, states[k], run.fluent[name].schema.fluents)
+            if store.holds_in(a, fluents):
+                here[a] = fluents
+            elif a not in trace.certifiers:
+                return None  # a fluent stream's fact outside the context it was certified in
+        trace.in_context.append(here)
+        out.append(trace.step(k, sorted(facts - here.keys()), args))
     return out, trace
+
+
+def _context(sem: Semantics, facts: Iterable[Atom], fluents: Iterable[str]) -> frozenset[Atom]:
+    """The facts of the ``fluents`` predicates in the state of base ``facts`` (derived ones
+    computed when a fluent predicate is derived)."""
+    preds = set(fluents)
+    if preds & sem.domain.derived_names:
+        return context(sem.closure(facts).facts, preds)
+    return context(facts, preds)
 
 
 def _replayed(
@@ -819,6 +1000,7 @@ def _final_plan(
     actions: tuple[tuple[str, tuple[str, ...]], ...],
     per_step: list[list[OptInstance]],
     classical_cost: float,
+    trace: _Trace,
 ) -> Plan:
     """The plan: deferred instances go to the step that first needs them (the goal's to the last
     step); inlined deferred streams get fresh placeholders for their outputs."""
@@ -846,6 +1028,8 @@ def _final_plan(
     certified = {a for a in run.store.facts if a not in run.problem.init}
     certified |= {a for d in deferred for a in facts[d]}
     certified |= external_facts(run.problem, run.store.rejected)
+    in_context = {a for here in trace.in_context for a in here}
+    certified |= in_context
     return Plan(
         steps=tuple(steps),
         cost=classical_cost / COST_SCALE,
@@ -853,6 +1037,7 @@ def _final_plan(
         certified=frozenset(certified),
         deferred=deferred,
         deferred_facts=facts,
+        fluent_facts={a: frozenset(run.store.fluent_facts[a]) for a in in_context},
     )
 
 
@@ -866,8 +1051,9 @@ def _cpu() -> float:
 
 
 def _unsolvable_message(run: Run) -> str:
-    n = len(run.store.records)
-    exhausted = sum(r.exhausted for r in run.store.records.values())
+    records = [*run.store.records.values(), *run.store.fluent_records.values()]
+    n = len(records)
+    exhausted = sum(r.exhausted for r in records)
     missing = missing_function_value(run.problem)
     return (
         f"{'no cheaper plan' if run.incumbent else 'no plan'}: the classical planner found "

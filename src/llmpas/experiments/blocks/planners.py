@@ -260,8 +260,9 @@ def run_method(
         tag = "plan" if rounds == 1 else f"correction-{rounds - 1}"
         answer = talk.ask(tag, messages, budget, grammar, rounds - 1)
         parse = parse_plan(answer, problem.domain, objects)
-        syntax_errors += not parse.ok
         verdict = judge(problem, parse)
+        # no steps where the goal already holds is the right answer, not a syntax error
+        syntax_errors += not parse.ok and not verdict.success
         if verdict.success or rounds >= limit:
             break
         messages += [Message("assistant", answer), Message("user", _feedback(verdict))]
