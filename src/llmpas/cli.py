@@ -35,13 +35,12 @@ from llmpas.files import atomic_write
 from llmpas.language.errors import BindingError, LanguageError
 from llmpas.language.problem import Problem, read_problem
 from llmpas.limits import time_limit
-from llmpas.options import bounded_int, positive_float, positive_int, seed
-from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, solve
+from llmpas.options import MAX_EXAMPLE_SIZE, bounded_int, positive_float, positive_int, seed
+from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, registry, solve
 from llmpas.planning.quality import DEFAULT_QUALITY, QUALITIES
 from llmpas.safetext import RedactingFilter, env_secrets, printable, redact
 
 Handler = Callable[[argparse.Namespace, Console], int]
-MAX_EXAMPLE_SIZE = 100
 
 
 class CliError(UsageError):
@@ -57,7 +56,19 @@ class CliError(UsageError):
 
 
 def _add_planner_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--algorithm", choices=("focused", "incremental"), default="focused")
+    p.add_argument(
+        "--algorithm",
+        choices=registry.algorithm_names(),
+        default=registry.DEFAULT_ALGORITHM,
+        help="the planning algorithm: "
+        + "; ".join(f"{e.name}: {e.description}" for e in registry.ALGORITHMS.values()),
+    )
+    p.add_argument(
+        "--classical",
+        choices=registry.classical_names(),
+        default=registry.DEFAULT_CLASSICAL,
+        help="the classical planner every search runs on",
+    )
     p.add_argument(
         "--defer",
         action=argparse.BooleanOptionalAction,
@@ -85,6 +96,7 @@ def _planner_config(args: argparse.Namespace) -> PlannerConfig:
     try:
         return PlannerConfig(
             algorithm=args.algorithm,
+            classical=args.classical,
             defer=args.defer and not args.eager,
             max_time=args.max_time,
             search_time=args.max_time,
@@ -210,114 +222,18 @@ def _cmd_examples(args: argparse.Namespace, console: Console) -> int:
 # ------------------------------------------------------------------------------------- bench
 
 
-def _cmd_bench_planning_time(args: argparse.Namespace, console: Console) -> int:
-    from llmpas.examples import EXAMPLES
-    from llmpas.experiments.jobs import executor_from_args
-    from llmpas.experiments.planning_time import BenchConfig, run_planning_time
-
-    unknown = [e for e in args.examples if e not in EXAMPLES]
-    if unknown:
-        known = ", ".join(sorted(EXAMPLES))
-        raise CliError(f"--examples: unknown example {unknown[0]!r}; examples: {known}")
-
-    try:
-        config = BenchConfig(
-            examples=tuple(args.examples),
-            trials=args.trials,
-            max_time=args.max_time,
-            sizes=tuple(args.sizes) if args.sizes else None,
-            out_dir=Path(args.out),
-            quality=args.quality,
-            jobs=args.jobs,
-            executor=executor_from_args(args),
-        )
-    except ValueError as e:
-        raise CliError(str(e)) from None
-    report = run_planning_time(config, console)
-    console.print(f"wrote {', '.join(str(p) for p in report.files)}")
-    return 0
-
-
-def _cmd_bench_perturbation(args: argparse.Namespace, console: Console) -> int:
-    from llmpas.experiments.jobs import executor_from_args
-    from llmpas.experiments.perturbation import PerturbationConfig, run_perturbation
-
-    try:
-        config = PerturbationConfig(
-            episodes=args.episodes,
-            seed=args.seed,
-            out_dir=Path(args.out),
-            jobs=args.jobs,
-            executor=executor_from_args(args),
-        )
-    except ValueError as e:
-        raise CliError(str(e)) from None
-    _, files = run_perturbation(config, console)
-    console.print(f"wrote {', '.join(str(p) for p in files)}")
-    return 0
-
-
 def _add_bench(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    from llmpas.experiments.jobs import add_executor_arguments
+    """``llmpas bench NAME``: one subcommand per registered benchmark
+    (:data:`llmpas.experiments.benchmarks.BENCHMARKS`), then ``bench all``, which runs them."""
+    from llmpas.experiments.benchmarks import benchmarks
 
     p = sub.add_parser("bench", help="benchmarks and experiments")
     bsub = p.add_subparsers(dest="bench", required=True)
-    pt = bsub.add_parser(
-        "planning-time", help="initial planning time vs size, deferred vs computed"
-    )
-    pt.add_argument("--examples", nargs="+", default=["mobile", "tamp2d"])
-    pt.add_argument(
-        "--sizes", nargs="+", type=bounded_int(1, MAX_EXAMPLE_SIZE), help="the example's sizes"
-    )
-    pt.add_argument("--trials", type=positive_int, default=5)
-    pt.add_argument(
-        "--max-time", type=positive_float, default=60.0, help="seconds per planning run"
-    )
-    pt.add_argument("--out", default="results/planning-time")
-    pt.add_argument(
-        "--quality", choices=tuple(QUALITIES), default=DEFAULT_QUALITY, help="plan quality"
-    )
-    pt.add_argument(
-        "--jobs",
-        type=positive_int,
-        default=1,
-        help="parallel processes (> 1: timings are contended; results cached under OUT/cache)",
-    )
-    add_executor_arguments(pt)
-    pt.set_defaults(handler=_one_line_errors(_cmd_bench_planning_time))
-    pe = bsub.add_parser(
-        "perturbation",
-        help="household episodes with tolerable disturbances: CSubBT vs flat execution, no LLM",
-    )
-    pe.add_argument("--episodes", type=positive_int, default=200)
-    pe.add_argument("--seed", type=seed, default=0)
-    pe.add_argument("--out", default="results/perturbation")
-    pe.add_argument(
-        "--jobs",
-        type=positive_int,
-        default=1,
-        help="parallel processes (results cached under OUT/cache)",
-    )
-    add_executor_arguments(pe)
-    pe.set_defaults(handler=_one_line_errors(_cmd_bench_perturbation))
-    _add_bench_blocksworld(bsub)
-    _add_bench_prompting(bsub)
-    _add_bench_tamp(bsub)
+    for bench in benchmarks():
+        b = bsub.add_parser(bench.name, help=bench.help)
+        bench.add_arguments(b)
+        b.set_defaults(handler=_one_line_errors(bench.command))
     _add_bench_all(bsub)
-    from llmpas.experiments import webreport
-
-    wr = bsub.add_parser("report", help="size and build time of the main job's web report")
-    webreport.add_arguments(wr)
-    wr.set_defaults(handler=_one_line_errors(webreport.command))
-
-
-def _add_bench_tamp(bsub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    """``llmpas bench tamp``: planning CPU on the pds-tamp2d families, computed vs deferred."""
-    from llmpas.experiments import tamp
-
-    p = bsub.add_parser("tamp", help="2-D continuous TAMP (mirror, packed): computed vs deferred")
-    tamp.add_arguments(p)
-    p.set_defaults(handler=_one_line_errors(tamp.command))
 
 
 def _add_bench_all(bsub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -327,27 +243,6 @@ def _add_bench_all(bsub: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p = bsub.add_parser("all", help="every experiment with one LLM backend, one after another")
     everything.add_arguments(p)
     p.set_defaults(handler=_one_line_errors(lambda a, c: everything.command(a, c, main)))
-
-
-def _add_bench_prompting(bsub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    """``llmpas bench prompting`` (Table II on the household suite) and ``bench validate-data``."""
-    from llmpas.experiments import prompting
-
-    p = bsub.add_parser("prompting", help="prompting methods on the household anomaly suite")
-    prompting.add_arguments(p)
-    p.set_defaults(handler=_one_line_errors(prompting.command))
-    v = bsub.add_parser("validate-data", help="check the household suite's task files")
-    prompting.add_validate_arguments(v)
-    v.set_defaults(handler=prompting.validate_command)
-
-
-def _add_bench_blocksworld(bsub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    """``llmpas bench blocksworld``: LLMs as blocks-world planners, SR per size (Table III)."""
-    from llmpas.experiments import blocksworld
-
-    p = bsub.add_parser("blocksworld", help="LLMs as blocks-world planners: SR per size")
-    blocksworld.add_arguments(p)
-    p.set_defaults(handler=_one_line_errors(blocksworld.command))
 
 
 def _one_line_errors(command: Handler) -> Handler:
@@ -714,7 +609,7 @@ def _add_report(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
 def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     from llmpas.experiments.jobs import add_llm_argument
     from llmpas.reasoning.assists import PROTOCOLS, Assists
-    from llmpas.reasoning.methods import METHODS
+    from llmpas.reasoning.methods import DECODINGS, method_names
 
     p = sub.add_parser("run", help="the closed loop: plan, execute, reason about anomalies")
     p.add_argument(
@@ -726,8 +621,8 @@ def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--gui", action="store_true", help="open the simulator window (PyBullet)")
     p.add_argument("--no-llm", action="store_true", help="plan and execute once, no reasoning")
     add_llm_argument(p, replan=True)
-    p.add_argument("--method", default="flp", choices=METHODS)
-    p.add_argument("--decoding", default="grammar", choices=("grammar", "schema", "none"))
+    p.add_argument("--method", default="flp", choices=method_names())
+    p.add_argument("--decoding", default="grammar", choices=DECODINGS)
     p.add_argument("--rounds", type=positive_int, default=3, help="LLM consultations at most")
     p.add_argument(
         "--protocol",

@@ -13,6 +13,7 @@ from collections.abc import Callable
 MAX_SECONDS = 7 * 24 * 3600.0  # a week: any time limit above is a typo
 MAX_COUNT = 1_000_000  # episodes, trials, rounds ...
 MAX_SEED = 2**63 - 1
+MAX_EXAMPLE_SIZE = 100  # objects or blocks of a shipped example
 
 
 def _parse_int(text: str) -> int:
@@ -55,4 +56,4 @@ def bounded_int(minimum: int, maximum: int) -> Callable[[str], int]:
 positive_int = bounded_int(1, MAX_COUNT)
 seed = bounded_int(0, MAX_SEED)
 
-__all__ = ["bounded_int", "positive_float", "positive_int", "seed"]
+__all__ = ["MAX_EXAMPLE_SIZE", "bounded_int", "positive_float", "positive_int", "seed"]

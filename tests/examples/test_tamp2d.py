@@ -13,7 +13,7 @@ from llmpas.examples.tamp2d import (
     Conf,
     Interval,
     Pose,
-    World,
+    Scene,
     make_problem,
     make_world,
     overlap,
@@ -84,11 +84,11 @@ def test_defer_streams() -> None:
 
 
 @pytest.fixture
-def world() -> World:
+def world() -> Scene:
     return make_world(3, 0)
 
 
-def test_sample_pose_stays_in_region(world: World) -> None:
+def test_sample_pose_stays_in_region(world: Scene) -> None:
     rng = np.random.default_rng(0)
     for b, r in itertools.product(world.blocks, (*world.regions, world.table)):
         poses = [p for (p,) in itertools.islice(tamp2d.sample_pose(world, rng, b.name, r.name), 30)]
@@ -98,20 +98,20 @@ def test_sample_pose_stays_in_region(world: World) -> None:
 
 def test_sample_pose_in_a_region_too_narrow_is_empty() -> None:
     narrow = Interval("r1", 1.0, 1.5)
-    w = World(
+    w = Scene(
         (BlockSpec("b1", 1.0, 0.5),), (narrow,), Interval("table", 0, 5), (Pose(3),), Conf(0, 2), 2
     )
     assert list(tamp2d.sample_pose(w, np.random.default_rng(0), "b1", "r1")) == []
 
 
-def test_inverse_kinematics(world: World) -> None:
+def test_inverse_kinematics(world: Scene) -> None:
     b = world.blocks[0]
     out = tamp2d.inverse_kinematics(world, b.name, Pose(2.0))
     assert out == (Conf(2.0, b.height + GRIP_OFFSET),)
     assert tamp2d.inverse_kinematics(world, b.name, Pose(world.table.hi + 1)) is None
 
 
-def test_plan_motion(world: World) -> None:
+def test_plan_motion(world: Scene) -> None:
     q1, q2 = Conf(1.0, 0.7), Conf(5.0, 0.9)
     out = tamp2d.plan_motion(world, q1, q2)
     assert out is not None
@@ -128,7 +128,7 @@ def test_plan_motion(world: World) -> None:
     assert tamp2d.plan_motion(world, world.home, world.home) == (tamp2d.Traj((world.home,)),)
 
 
-def test_cfree_is_symmetric_and_exact(world: World) -> None:
+def test_cfree_is_symmetric_and_exact(world: Scene) -> None:
     rng = np.random.default_rng(1)
     b1, b2 = world.blocks[0].name, world.blocks[1].name
     spec1, spec2 = world.block(b1), world.block(b2)
@@ -150,7 +150,7 @@ def test_cfree_is_symmetric_and_exact(world: World) -> None:
 class Mover:
     """Builds a plan by calling the problem's streams: transfer blocks one by one."""
 
-    def __init__(self, problem: Problem, world: World) -> None:
+    def __init__(self, problem: Problem, world: Scene) -> None:
         self.hp = HandPlan(problem)
         self.world = world
         self.conf = world.home

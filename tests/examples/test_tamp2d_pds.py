@@ -21,7 +21,7 @@ from llmpas.examples.tamp2d_pds.geometry import (
     overlaps,
 )
 from llmpas.examples.tamp2d_pds.validate import Invalid, check_geometry, validate
-from llmpas.examples.tamp2d_pds.world import World
+from llmpas.examples.tamp2d_pds.world import Scene
 from llmpas.language.logic import And, Atom, Exists, Forall, Formula, Not, Or
 from llmpas.language.semantics import nnf
 from llmpas.planning import PlannerConfig, solve
@@ -224,7 +224,7 @@ def test_a_trajectory_through_the_wall_fails_only_the_geometry() -> None:
     assert "collides" in check.message
 
 
-def _simulate(world: World, steps: list[tuple[str, tuple[Any, ...]]]) -> str:
+def _simulate(world: Scene, steps: list[tuple[str, tuple[Any, ...]]]) -> str:
     """Run the geometric check on steps given with values; its message ("ok" when it passes)."""
     values: dict[str, Any] = {}
     named = []
@@ -244,7 +244,7 @@ def _simulate(world: World, steps: list[tuple[str, tuple[Any, ...]]]) -> str:
     return "ok"
 
 
-def _pick_steps(world: World, robot: int, grasp: Grasp) -> list[tuple[str, tuple[Any, ...]]]:
+def _pick_steps(world: Scene, robot: int, grasp: Grasp) -> list[tuple[str, tuple[Any, ...]]]:
     b, p = world.blocks[0], world.start[0]
     q = grasp_conf(p, grasp)
     home = world.homes[robot]

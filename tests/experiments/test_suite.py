@@ -148,6 +148,28 @@ def test_bad_judge_tables_name_file_and_field(
     assert "\n" not in line
 
 
+def test_the_judge_table_and_the_scenario_say_the_same_about_the_same_mistake() -> None:
+    """Both are read with the same field readers (llmpas.fields)."""
+
+    def error(**changes: object) -> str:
+        with pytest.raises(SuiteError) as err:
+            task_from_dict({**_data(), **changes}, source="x/t.toml")
+        return str(err.value)
+
+    judge_table = {"category": "object-loss", "l_gt": 2}
+    assert error(house={"floor": "yes"}) == (
+        "x/t.toml: house.floor: must be true or false, got 'yes'"
+    )
+    assert error(judge={**judge_table, "measures_llm": "yes"}) == (
+        "x/t.toml: judge.measures_llm: must be true or false, got 'yes'"
+    )
+    assert error(judge={**judge_table, "effective": [3]}) == (
+        "x/t.toml: judge.effective[0]: must be a non-empty string, got 3"
+    )
+    assert error(judge=5) == "x/t.toml: judge: must be a table, got 5"
+    assert error(noise=5) == "x/t.toml: noise: must be a table, got 5"
+
+
 def test_scenario_errors_and_a_missing_judge_table_are_reported() -> None:
     data = _data()
     data["objects"] = [{"name": "cube", "region": "tabel1", "x": 1.8, "y": 4.45}]

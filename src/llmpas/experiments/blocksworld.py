@@ -26,6 +26,7 @@ from typing import Any
 
 from rich.console import Console
 
+from llmpas.experiments.benchmarks import AllConfig, Bench
 from llmpas.experiments.blocks.planners import (
     DECODINGS,
     METHODS,
@@ -551,7 +552,23 @@ def plot(rows: Sequence[Row], llm: str, path: Path) -> None:
     plt.close(fig)
 
 
+def _in_all(config: AllConfig) -> tuple[str, ...]:
+    count = "1" if config.quick else str(config.count)
+    sizes = ("--sizes", "3") if config.quick else ()
+    options = ("--llm", config.llm, "--count", count, *sizes, *config.jobs_argv())
+    return (*options, *config.outputs("blocksworld"))
+
+
+BENCHMARK = Bench(
+    "blocksworld",
+    "LLMs as blocks-world planners: SR per size",
+    add_arguments,
+    command,
+    _in_all,
+)
+
 __all__ = [
+    "BENCHMARK",
     "BlocksConfig",
     "Report",
     "Row",

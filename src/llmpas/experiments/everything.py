@@ -15,20 +15,15 @@ import argparse
 import shlex
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 from rich.console import Console
 
-from llmpas.experiments.jobs import (
-    ExecutorSpec,
-    add_executor_arguments,
-    add_llm_argument,
-    executor_from_args,
-)
+from llmpas.experiments.benchmarks import ORACLE, AllConfig, benchmarks
+from llmpas.experiments.jobs import add_executor_arguments, add_llm_argument, executor_from_args
 from llmpas.files import atomic_write
 
-ORACLE = "oracle"
 QUICK_TASKS = ("ol01-table2", "ab06-sink-mug", "sc06-apple-frozen-stove")
 
 
@@ -50,64 +45,16 @@ class Step:
         return shlex.join(("llmpas", *self.argv))
 
 
-@dataclass(frozen=True)
-class AllConfig:
-    llm: str = "llama-cpp"
-    jobs: int = 1
-    samples: int = 3  # prompting: samples per task and method
-    count: int = 20  # blocks world: instances per size
-    quick: bool = False
-    out_dir: Path = Path("results")
-    # every step but validate-data runs there
-    executor: ExecutorSpec = field(default_factory=ExecutorSpec)
-
-    def __post_init__(self) -> None:
-        if not self.llm:
-            raise ValueError("llm must name a backend (oracle, replay:DIR, openai:..., llama-cpp)")
-        for name in ("jobs", "samples", "count"):
-            if getattr(self, name) < 1:
-                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
-
-
 def plan_steps(config: AllConfig) -> tuple[Step, ...]:
-    """The experiments in the order they run: data check, planner, executor, reasoner."""
-    quick = config.quick
-    jobs = ("--jobs", str(config.jobs))
-    llm = ("--llm", config.llm)
-    methods = ("--methods", "none" if config.llm == ORACLE else "all")  # oracle: its row only
-
-    def step(name: str, *argv: str) -> Step:
-        out = ("--out", str(config.out_dir / name))
-        return Step(name, ("bench", name, *argv, *out, *config.executor.argv()))
-
-    steps = [] if quick else [Step("validate-data", ("bench", "validate-data", *jobs))]
-    # planning-time runs its trials one at a time: timings measured in parallel are contended
-    return (
-        *steps,
-        step(
-            "planning-time",
-            *(("--examples", "tamp2d", "--sizes", "2", "3", "--trials", "1") if quick else ()),
-        ),
-        step("tamp", *(("--sizes", "1", "--trials", "1") if quick else ())),
-        step("perturbation", "--episodes", "6" if quick else "200", *jobs),
-        step(
-            "prompting",
-            *llm,
-            *methods,
-            "--samples",
-            "1" if quick else str(config.samples),
-            *(("--tasks", *QUICK_TASKS) if quick else ()),
-            *jobs,
-        ),
-        step(
-            "blocksworld",
-            *llm,
-            "--count",
-            "1" if quick else str(config.count),
-            *(("--sizes", "3") if quick else ()),
-            *jobs,
-        ),
-    )
+    """The experiments in the order they run (the registry's, :data:`~llmpas.experiments.
+    benchmarks.BENCHMARKS`): each registered benchmark whose :meth:`~llmpas.experiments.
+    benchmarks.Benchmark.step` gives options for ``config``."""
+    steps = []
+    for bench in benchmarks():
+        options = bench.step(config)
+        if options is not None:
+            steps.append(Step(bench.name, ("bench", bench.name, *options)))
+    return tuple(steps)
 
 
 @dataclass(frozen=True)
@@ -203,4 +150,14 @@ def command(args: argparse.Namespace, console: Console, run: Runner) -> int:
     return 1 if failed else 0
 
 
-__all__ = ["AllConfig", "Outcome", "Step", "add_arguments", "command", "plan_steps", "run_all"]
+__all__ = [
+    "ORACLE",
+    "QUICK_TASKS",
+    "AllConfig",
+    "Outcome",
+    "Step",
+    "add_arguments",
+    "command",
+    "plan_steps",
+    "run_all",
+]

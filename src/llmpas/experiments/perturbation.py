@@ -10,6 +10,7 @@ reuses a stale result. Writes ``perturbation.csv``, ``perturbation.md`` and ``pe
 
 from __future__ import annotations
 
+import argparse
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
@@ -19,8 +20,19 @@ import numpy as np
 import py_trees
 from rich.console import Console
 
-from llmpas.experiments.jobs import ExecutorSpec, Job, fingerprint, not_cacheable, run_jobs
+from llmpas.experiments.benchmarks import AllConfig, Bench
+from llmpas.experiments.jobs import (
+    ExecutorSpec,
+    Job,
+    add_executor_arguments,
+    executor_from_args,
+    fingerprint,
+    not_cacheable,
+    run_jobs,
+)
 from llmpas.files import atomic_write, save_figure, write_csv
+from llmpas.options import positive_int
+from llmpas.options import seed as seed_option
 from llmpas.planning import PlannerConfig
 from llmpas.system import run_once
 from llmpas.worlds.api import RunOptions
@@ -313,3 +325,48 @@ def _write(outcomes: Sequence[Outcome], config: PerturbationConfig) -> list[Path
     png = out / "perturbation.png"
     plot(outcomes, config, png)
     return [path, md, png]
+
+
+# ------------------------------------------------------------------------------------ CLI
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of ``llmpas bench perturbation``."""
+    p.add_argument("--episodes", type=positive_int, default=200)
+    p.add_argument("--seed", type=seed_option, default=0)
+    p.add_argument("--out", default="results/perturbation")
+    p.add_argument(
+        "--jobs",
+        type=positive_int,
+        default=1,
+        help="parallel processes (results cached under OUT/cache)",
+    )
+    add_executor_arguments(p)
+
+
+def command(args: argparse.Namespace, console: Console) -> int:
+    """``llmpas bench perturbation``."""
+    config = PerturbationConfig(
+        episodes=args.episodes,
+        seed=args.seed,
+        out_dir=Path(args.out),
+        jobs=args.jobs,
+        executor=executor_from_args(args),
+    )
+    _, files = run_perturbation(config, console)
+    console.print(f"wrote {', '.join(str(p) for p in files)}")
+    return 0
+
+
+def _in_all(config: AllConfig) -> tuple[str, ...]:
+    episodes = "6" if config.quick else "200"
+    return ("--episodes", episodes, *config.jobs_argv(), *config.outputs("perturbation"))
+
+
+BENCHMARK = Bench(
+    "perturbation",
+    "household episodes with tolerable disturbances: CSubBT vs flat execution, no LLM",
+    add_arguments,
+    command,
+    _in_all,
+)

@@ -15,6 +15,7 @@ many jobs measured its timings).
 
 from __future__ import annotations
 
+import argparse
 import logging
 import statistics
 import warnings
@@ -25,10 +26,21 @@ from typing import Any
 
 from rich.console import Console
 
-from llmpas.examples import get_example
-from llmpas.experiments.jobs import ExecutorSpec, Job, fingerprint, not_cacheable, run_jobs
+from llmpas.examples import EXAMPLES, get_example
+from llmpas.experiments.benchmarks import AllConfig, Bench
+from llmpas.experiments.jobs import (
+    ExecutorSpec,
+    Job,
+    add_executor_arguments,
+    executor_from_args,
+    fingerprint,
+    not_cacheable,
+    run_jobs,
+)
 from llmpas.files import atomic_write, save_figure, write_csv
-from llmpas.planning import PlannerConfig, solve
+from llmpas.options import MAX_EXAMPLE_SIZE, bounded_int, positive_float, positive_int
+from llmpas.planning import PlannerConfig, registry, solve
+from llmpas.planning.quality import DEFAULT_QUALITY, QUALITIES
 
 log = logging.getLogger(__name__)
 
@@ -43,7 +55,8 @@ class BenchConfig:
     max_time: float = 60.0
     sizes: tuple[int, ...] | None = None  # None: each example's own sizes
     out_dir: Path = Path("results/planning-time")
-    algorithm: str = "focused"
+    algorithm: str = "focused"  # PlannerConfig.algorithm (llmpas.planning.registry)
+    classical: str = "fast-downward"  # PlannerConfig.classical (llmpas.planning.registry)
     quality: str = "fast"  # PlannerConfig.quality
     jobs: int = 1  # parallel processes (> 1: contended timings)
     # where the trials run (local: ``jobs`` processes)
@@ -130,7 +143,8 @@ def planner_config(mode: str, trial: int, config: BenchConfig) -> PlannerConfig:
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
     return PlannerConfig(
-        algorithm=config.algorithm,  # type: ignore[arg-type]
+        algorithm=config.algorithm,
+        classical=config.classical,
         defer=(mode == "deferred"),
         max_time=config.max_time,
         search_time=config.max_time,
@@ -337,3 +351,71 @@ def plot(trials: Sequence[Trial], rows: Sequence[Row], config: BenchConfig, path
     fig.tight_layout()
     save_figure(fig, path)
     plt.close(fig)
+
+
+# ------------------------------------------------------------------------------------ CLI
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of ``llmpas bench planning-time``."""
+    p.add_argument("--examples", nargs="+", default=["mobile", "tamp2d"])
+    p.add_argument(
+        "--sizes", nargs="+", type=bounded_int(1, MAX_EXAMPLE_SIZE), help="the example's sizes"
+    )
+    p.add_argument("--trials", type=positive_int, default=5)
+    p.add_argument("--max-time", type=positive_float, default=60.0, help="seconds per planning run")
+    p.add_argument("--out", default="results/planning-time")
+    p.add_argument(
+        "--quality", choices=tuple(QUALITIES), default=DEFAULT_QUALITY, help="plan quality"
+    )
+    p.add_argument(
+        "--algorithm", choices=registry.algorithm_names(), default=registry.DEFAULT_ALGORITHM
+    )
+    p.add_argument(
+        "--classical", choices=registry.classical_names(), default=registry.DEFAULT_CLASSICAL
+    )
+    p.add_argument(
+        "--jobs",
+        type=positive_int,
+        default=1,
+        help="parallel processes (> 1: timings are contended; results cached under OUT/cache)",
+    )
+    add_executor_arguments(p)
+
+
+def command(args: argparse.Namespace, console: Console) -> int:
+    """``llmpas bench planning-time``."""
+    unknown = [e for e in args.examples if e not in EXAMPLES]
+    if unknown:
+        known = ", ".join(sorted(EXAMPLES))
+        raise ValueError(f"--examples: unknown example {unknown[0]!r}; examples: {known}")
+    config = BenchConfig(
+        examples=tuple(args.examples),
+        trials=args.trials,
+        max_time=args.max_time,
+        sizes=tuple(args.sizes) if args.sizes else None,
+        out_dir=Path(args.out),
+        algorithm=args.algorithm,
+        classical=args.classical,
+        quality=args.quality,
+        jobs=args.jobs,
+        executor=executor_from_args(args),
+    )
+    report = run_planning_time(config, console)
+    console.print(f"wrote {', '.join(str(p) for p in report.files)}")
+    return 0
+
+
+def _in_all(config: AllConfig) -> tuple[str, ...]:
+    # its trials run one at a time: timings measured in parallel are contended
+    quick = ("--examples", "tamp2d", "--sizes", "2", "3", "--trials", "1") if config.quick else ()
+    return (*quick, *config.outputs("planning-time"))
+
+
+BENCHMARK = Bench(
+    "planning-time",
+    "initial planning time vs size, deferred vs computed",
+    add_arguments,
+    command,
+    _in_all,
+)

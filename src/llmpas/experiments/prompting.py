@@ -49,7 +49,7 @@ from typing import Any
 
 from rich.console import Console
 
-from llmpas.errors import UsageError
+from llmpas.experiments.benchmarks import AllConfig, Bench
 from llmpas.experiments.jobs import (
     ExecutorSpec,
     Job,
@@ -64,7 +64,6 @@ from llmpas.experiments.jobs import (
 )
 from llmpas.experiments.replan import REPLAN, Replan
 from llmpas.experiments.suite import (
-    HASH_SEEDS,
     SUITE_DIR,
     Category,
     SuiteTask,
@@ -78,7 +77,13 @@ from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning import PlannerConfig
 from llmpas.reasoning.assists import PROTOCOLS, Assists, ablation, parse_assists
 from llmpas.reasoning.llm import LLM
-from llmpas.reasoning.methods import DECODINGS, METHODS, PAPER_METHODS, MethodConfig
+from llmpas.reasoning.methods import (
+    DECODINGS,
+    METHODS,
+    PAPER_METHODS,
+    MethodConfig,
+    method_names,
+)
 from llmpas.system import LLMFor, LoopResult
 from llmpas.worlds.api import RunOptions
 
@@ -133,9 +138,10 @@ class PromptingConfig:
             parse_assists(spec)  # ValueError naming an unknown assist
         if not 1 <= self.votes <= 16:
             raise ValueError(f"votes must be in [1, 16], got {self.votes}")
-        bad = [m for m in self.methods if m not in METHODS]
+        known = method_names()
+        bad = [m for m in self.methods if m not in known]
         if bad:
-            raise ValueError(f"unknown method {bad[0]!r}; methods: {', '.join(METHODS)}")
+            raise ValueError(f"unknown method {bad[0]!r}; methods: {', '.join(known)}")
         if len(set(self.methods)) != len(self.methods):
             raise ValueError("a method is listed twice")
         if not self.methods and not self.oracle and not self.replan:
@@ -674,7 +680,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         nargs="+",
         default=["all"],
         help="prompting methods: all, paper (the paper's five), none (the oracle and replan "
-        "rows only), or some of " + ", ".join(METHODS),
+        "rows only), or some of " + ", ".join(method_names()),
     )
     p.add_argument(
         "--no-oracle", action="store_true", help="leave out the oracle (upper-bound) row"
@@ -726,7 +732,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def config_from_args(args: argparse.Namespace) -> PromptingConfig:
     methods = (
-        tuple(METHODS)
+        method_names()
         if "all" in args.methods
         else PAPER_METHODS
         if args.methods == ["paper"]
@@ -767,70 +773,35 @@ def command(args: argparse.Namespace, console: Console) -> int:
     return 0
 
 
-def add_validate_arguments(p: argparse.ArgumentParser) -> None:
-    """The options of ``llmpas bench validate-data``."""
-    p.add_argument("folder", nargs="?", default=str(SUITE_DIR), help="folder of task files")
-    p.add_argument(
-        "--seeds",
-        type=int,
-        default=len(HASH_SEEDS),
-        help="oracle runs per task, with PYTHONHASHSEED 0, 1, ... (l_gt: the shortest found); "
-        "0: one run in this process",
-    )
-    p.add_argument("--jobs", type=int, default=1, help="oracle runs in parallel processes")
-    p.add_argument("--max-time", type=float, default=60.0, help="planner seconds per plan")
+QUICK_TASKS = ("ol01-table2", "ab06-sink-mug", "sc06-apple-frozen-stove")  # bench all --quick
 
 
-def validate_command(args: argparse.Namespace, console: Console) -> int:
-    """``llmpas bench validate-data``: one line per mistake; exit status 1 when any."""
-    from llmpas.experiments.jobs import progress_bar
-    from llmpas.experiments.suite import SuiteError, task_files, validate_folder
+def _in_all(config: AllConfig) -> tuple[str, ...]:
+    methods = "none" if config.llm == ORACLE else "all"  # oracle: its row only
+    samples = "1" if config.quick else str(config.samples)
+    tasks = ("--tasks", *QUICK_TASKS) if config.quick else ()
+    options = ("--llm", config.llm, "--methods", methods, "--samples", samples, *tasks)
+    return (*options, *config.jobs_argv(), *config.outputs("prompting"))
 
-    if args.seeds < 0 or args.jobs < 1:
-        raise UsageError("--seeds must be >= 0 and --jobs >= 1")
-    folder = Path(args.folder)
-    config = LoopConfig(options=RunOptions(planner=PlannerConfig(max_time=args.max_time)))
-    try:
-        files = len(task_files(folder))
-    except SuiteError:
-        files = 0
-    total = files * (1 + max(1, args.seeds))
-    with progress_bar(console, "validating", total) as advance:
-        result = validate_folder(
-            folder,
-            config,
-            hash_seeds=tuple(range(args.seeds)),  # 0, 1, ...: HASH_SEEDS by default
-            jobs=args.jobs,
-            progress=lambda _name: advance(),
-        )
-    for note in result.notes:
-        console.print(f"[yellow]note[/]: {note}", highlight=False, soft_wrap=True)
-    for issue in result.issues:
-        console.print(f"[bold red]error[/]: {issue}", highlight=False, soft_wrap=True)
-    if result.replan:
-        failed = sum(v != "success" for v in result.replan.values())
-        console.print(
-            f"replan (the task goal restated) fails {failed} of {len(result.replan)} tasks: "
-            + ", ".join(f"{t} {v}" for t, v in sorted(result.replan.items())),
-            highlight=False,
-            soft_wrap=True,
-        )
-    if result.ok:
-        console.print(f"[bold green]ok[/]: {len(result.tasks)} task files in {folder}")
-        return 0
-    console.print(f"{len(result.issues)} problem(s) in {result.checked} task files")
-    return 1
 
+BENCHMARK = Bench(
+    "prompting",
+    "prompting methods on the household anomaly suite",
+    add_arguments,
+    command,
+    _in_all,
+)
 
 __all__ = [
+    "BENCHMARK",
     "ORACLE",
+    "QUICK_TASKS",
     "REPLAN",
     "Cell",
     "Payload",
     "PromptingConfig",
     "Report",
     "add_arguments",
-    "add_validate_arguments",
     "build_llm",
     "command",
     "jobs_for",
@@ -840,5 +811,4 @@ __all__ = [
     "run_job",
     "run_prompting",
     "summarise",
-    "validate_command",
 ]

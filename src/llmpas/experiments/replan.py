@@ -24,7 +24,6 @@ from llmpas.reasoning.tables import Call
 
 REPLAN = "replan"
 FIRST_LOOK = "No reasoning: do the task again from what the robot now believes."
-PROGRAM_METHODS = tuple(m.name for m in REGISTRY.values() if m.program)
 
 
 def task_literals(goal: str) -> tuple[Atom | Not, ...]:
@@ -62,7 +61,8 @@ class Replan:
         if request.tag == "first-look":
             return Response(FIRST_LOOK, model=REPLAN)
         calls = getattr(request.situation, "calls", None)
-        if self.method in PROGRAM_METHODS and calls:
+        method = REGISTRY.get(self.method)
+        if method is not None and method.program and calls:
             return Response(self.program(calls), model=REPLAN)
         return Response(self.goals(), model=REPLAN)
 

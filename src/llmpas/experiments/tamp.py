@@ -49,6 +49,7 @@ from rich.console import Console
 from llmpas.examples.tamp2d_pds import FAMILIES, make_problem
 from llmpas.examples.tamp2d_pds.validate import validate
 from llmpas.experiments import pds_files
+from llmpas.experiments.benchmarks import AllConfig, Bench
 from llmpas.experiments.jobs import (
     ExecutorSpec,
     Job,
@@ -680,7 +681,21 @@ def command(args: argparse.Namespace, console: Console) -> int:
     return 0
 
 
+def _in_all(config: AllConfig) -> tuple[str, ...]:
+    quick = ("--sizes", "1", "--trials", "1") if config.quick else ()
+    return (*quick, *config.outputs("tamp"))
+
+
+BENCHMARK = Bench(
+    "tamp",
+    "2-D continuous TAMP (mirror, packed): computed vs deferred",
+    add_arguments,
+    command,
+    _in_all,
+)
+
 __all__ = [
+    "BENCHMARK",
     "MODES",
     "REFERENCE",
     "REFERENCE_LABEL",

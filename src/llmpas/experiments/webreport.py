@@ -14,6 +14,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
+from llmpas.experiments.benchmarks import Bench
 from llmpas.reporting import Built, build_report
 
 SIZE_TARGET = 5_000_000  # bytes
@@ -71,4 +72,8 @@ def _ok(good: bool) -> str:
     return "yes" if good else "NO"
 
 
-__all__ = ["SIZE_TARGET", "TIME_TARGET", "add_arguments", "command", "measure"]
+BENCHMARK = Bench(
+    "report", "size and build time of the main job's web report", add_arguments, command
+)
+
+__all__ = ["BENCHMARK", "SIZE_TARGET", "TIME_TARGET", "add_arguments", "command", "measure"]

@@ -7,6 +7,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from llmpas.planning import registry
 from llmpas.planning.quality import DEFAULT_QUALITY, QUALITIES, QualityName
 from llmpas.planning.result import Algorithm
 
@@ -87,12 +88,16 @@ class PlannerConfig:
     time limit). Plans that may be replanned often must come quickly and surely: ``fast``.
     ``search`` (a Fast Downward search string) replaces the quality's first search.
 
+    ``algorithm`` names a planning algorithm and ``classical`` the classical planner every
+    search runs on, both in :mod:`~llmpas.planning.registry` (``llmpas plan --algorithm``,
+    ``--classical``).
+
     :attr:`deterministic` holds when every counted limit is set; :meth:`validation` is the preset
     for deciding whether goals can be planned (the closed loop's validator), where the same
     inputs must give the same verdict on any machine and under any load.
     """
 
-    algorithm: Algorithm = "focused"
+    algorithm: Algorithm = registry.DEFAULT_ALGORITHM
     defer: bool = True
     max_time: float = 60.0
     max_iterations: int = 200
@@ -106,12 +111,11 @@ class PlannerConfig:
     patience: int = 10  # anytime: iterations without a cheaper plan before it stops
     max_stream_calls: int | None = None
     max_empty_samples: int | None = None
+    classical: str = registry.DEFAULT_CLASSICAL
 
     def __post_init__(self) -> None:
-        if self.algorithm not in ("focused", "incremental"):
-            raise ValueError(
-                f"algorithm must be 'focused' or 'incremental', got {self.algorithm!r}"
-            )
+        registry.algorithm(self.algorithm)  # ValueError naming the choices
+        registry.classical_planner(self.classical)
         if not (self.max_time > 0 and self.search_time > 0):  # NaN fails too
             raise ValueError("max_time and search_time must be > 0")
         if not (math.isfinite(self.max_time) and math.isfinite(self.search_time)):

@@ -49,6 +49,8 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 if TYPE_CHECKING:
     from fast_downward.translate import pddl
 
+    from llmpas.planning.config import PlannerConfig
+
 logger = logging.getLogger(__name__)
 
 _AXIOMS = "axioms=approximate_negative"
@@ -297,6 +299,15 @@ class FastDownward:
                 message = f"translation took {translate_time:.2f} s of max_time {budget} s"
                 return _failure(ClassicalStatus.TIMEOUT, message, translate_time)
             return _search(binary, self.config, translated, workdir, remaining, translate_time)
+
+
+def fast_downward(search: str, config: PlannerConfig) -> FastDownward:
+    """The registered classical planner ``fast-downward``
+    (:data:`~llmpas.planning.registry.CLASSICAL_PLANNERS`): Fast Downward running ``search``
+    within the config's per-search time and memory."""
+    return FastDownward(
+        DownwardConfig(search=search, max_time=config.search_time, memory_mb=config.memory_mb)
+    )
 
 
 # --- translation -------------------------------------------------------------------------------

@@ -8,7 +8,7 @@ import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any, Literal
+from typing import Any
 
 from llmpas.language.logic import Atom
 
@@ -176,4 +176,4 @@ class PlanResult:
         return json.dumps(self.to_json(), indent=2)
 
 
-Algorithm = Literal["focused", "incremental"]
+Algorithm = str  # a name in llmpas.planning.registry.ALGORITHMS

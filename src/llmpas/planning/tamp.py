@@ -43,6 +43,7 @@ from llmpas.language.bindings import BoundStream
 from llmpas.language.logic import Atom, FuncTerm, Substitution
 from llmpas.language.problem import Problem, missing_function_value
 from llmpas.language.semantics import Semantics, State, preimage, replay
+from llmpas.planning import registry
 from llmpas.planning.compile import (
     COST_SCALE,
     CompiledDomain,
@@ -58,8 +59,6 @@ from llmpas.planning.downward import (
     ClassicalPlan,
     ClassicalPlanner,
     ClassicalStatus,
-    DownwardConfig,
-    FastDownward,
     PlannerNotFound,
     TaskPlanner,
 )
@@ -99,8 +98,9 @@ log = logging.getLogger(__name__)
 
 
 @dataclass
-class _Run:
-    """Mutable bookkeeping of one call to :func:`solve`."""
+class Run:
+    """Mutable bookkeeping of one call to :func:`solve`: what a registered algorithm
+    (:data:`~llmpas.planning.registry.ALGORITHMS`) works on."""
 
     problem: Problem
     config: PlannerConfig
@@ -113,7 +113,7 @@ class _Run:
     inline: frozenset[str] = frozenset()  # deferred streams compiled into the actions
     domain_text: str = ""  # what the classical planner gets (quantifiers guarded)
     iterations: int = 0
-    complexity_limit: int = 0  # focused: raised when a search fails (see _widen)
+    complexity_limit: int | None = None  # focused: set, raised when a search fails (_widen)
     evidence: int = 1  # focused: raised when a search fails (see _widen)
     translate_time: float = 0.0
     search_time: float = 0.0
@@ -152,13 +152,8 @@ class _Run:
         explicit = self.config.search if n == 0 else None
         command = explicit or self.quality.search(n).command(self.bound())
         if command not in self.planners:
-            self.planners[command] = FastDownward(
-                DownwardConfig(
-                    search=command,
-                    max_time=self.config.search_time,
-                    memory_mb=self.config.memory_mb,
-                )
-            )
+            make = registry.classical_planner(self.config.classical).load()
+            self.planners[command] = make(command, self.config)
         return self.planners[command]
 
     def deferred(self, b: BoundStream) -> bool:
@@ -170,10 +165,10 @@ class _Run:
         return b.schema.name not in self.inline and not b.info.never_assumed
 
     def hidden(self) -> set[str]:
-        """The real objects kept out of the classical task: in focused planning, those above
-        the complexity limit (the values of samplers called many times wait until a search
-        fails without them, as their optimistic instances do)."""
-        if self.config.algorithm != "focused":
+        """The real objects kept out of the classical task: when the algorithm set a complexity
+        limit (focused planning), those above it (the values of samplers called many times wait
+        until a search fails without them, as their optimistic instances do)."""
+        if self.complexity_limit is None:
             return set()
         return set(self.store.above(self.complexity_limit))
 
@@ -212,8 +207,8 @@ class _Run:
                 Improvement(wall, cpu, plan.cost, plan, self.iterations, calls)
             )
             self.idle = 0
-            depth = self.quality.improve_depth
-            if self.config.algorithm == "focused" and depth is not None:
+            depth = self.quality.improve_depth  # read by focused planning (its closure)
+            if depth is not None:
                 self.depth = depth if depth < self.config.max_level else None
             log.info(
                 "plan %d: cost %g, %d steps, after %.2f s (%.2f s CPU)",
@@ -291,7 +286,7 @@ def _solve_once(
             PlanStatus.ERROR, None, PlanStats(config.algorithm, config.quality), refused
         )
     fluent = fluent_streams(problem, assumed)
-    run = _Run(
+    run = Run(
         problem,
         config,
         classical,
@@ -308,9 +303,9 @@ def _solve_once(
     )
     run.domain_text = guard_quantifiers(run.compiled.domain).to_pddl()
     try:
-        if config.algorithm == "incremental":
-            return _incremental(run)
-        return _focused(run)
+        plan = registry.algorithm(config.algorithm).load()
+        result: PlanResult = plan(run)
+        return result
     except StreamFailure as e:
         return run.result(PlanStatus.ERROR, str(e))
     except LimitReached as e:
@@ -322,7 +317,8 @@ def _solve_once(
 # ------------------------------------------------------------------------------------ focused
 
 
-def _focused(run: _Run) -> PlanResult:
+def plan_focused(run: Run) -> PlanResult:
+    """The ``focused`` algorithm (see the module's documentation)."""
     store = run.store
     evaluated: _Evaluated | None = None  # the last plan whose streams were evaluated
     run.complexity_limit = run.config.max_level
@@ -373,7 +369,7 @@ def _focused(run: _Run) -> PlanResult:
     return _iteration_limit(run)
 
 
-def _closure(run: _Run) -> tuple[Closure, list[OptInstance]]:
+def _closure(run: Run) -> tuple[Closure, list[OptInstance]]:
     """The optimistic closure for the next search (within the complexity limit, and the
     depth of an improving search), with the function values it needs."""
     closure = Closure(run.complexity_limit, run.evidence)
@@ -388,7 +384,7 @@ def _closure(run: _Run) -> tuple[Closure, list[OptInstance]]:
     return closure, opt
 
 
-def _time_limit(run: _Run, where: str = "") -> PlanResult:
+def _time_limit(run: Run, where: str = "") -> PlanResult:
     return run.result(
         PlanStatus.TIMEOUT,
         f"time limit reached: {'' if run.incumbent else 'no plan within '}"
@@ -396,7 +392,7 @@ def _time_limit(run: _Run, where: str = "") -> PlanResult:
     )
 
 
-def _iteration_limit(run: _Run) -> PlanResult:
+def _iteration_limit(run: Run) -> PlanResult:
     if run.store.out_of_time():  # the last iteration may have been cut short by the clock
         return _time_limit(run)
     n = run.config.max_iterations
@@ -407,7 +403,7 @@ def _iteration_limit(run: _Run) -> PlanResult:
     )
 
 
-def _negative_streams(run: _Run) -> list[BoundStream]:
+def _negative_streams(run: Run) -> list[BoundStream]:
     """Non-deferred tests whose certified atoms occur negated, and streams never assumed
     (``p_success=0``): evaluated on every real binding before a search."""
     return [
@@ -422,7 +418,7 @@ def _negative_streams(run: _Run) -> list[BoundStream]:
     ]
 
 
-def _widen(run: _Run, closure: Closure) -> bool:
+def _widen(run: Run, closure: Closure) -> bool:
     """After a failed search: re-enable the evaluated instances and raise the complexity limit
     (to the lowest complexity left out, at least by one), as PDDLStream's adaptive algorithm
     does; only when neither changes anything, ask for one more failure before a test on a new
@@ -430,11 +426,11 @@ def _widen(run: _Run, closure: Closure) -> bool:
     optimistically."""
     reenabled = _reenable(run.store)
     if closure.pruned is not None:
-        run.complexity_limit = max(run.complexity_limit + 1, closure.pruned)
+        run.complexity_limit = max((run.complexity_limit or 0) + 1, closure.pruned)
     elif not reenabled and closure.withheld:
         run.evidence += 1
     log.debug(
-        "iteration %d: complexity limit %d, evidence %d",
+        "iteration %d: complexity limit %s, evidence %d",
         run.iterations,
         run.complexity_limit,
         run.evidence,
@@ -452,7 +448,7 @@ def _reenable(store: StreamStore) -> bool:
     return bool(disabled) or unblocked
 
 
-def _evaluate(run: _Run, needed: list[OptInstance], trace: _Trace) -> dict[int, dict[str, str]]:
+def _evaluate(run: Run, needed: list[OptInstance], trace: _Trace) -> dict[int, dict[str, str]]:
     """Evaluate a stream plan in order; each placeholder input takes the real output of the
     producer the trace chose for it. Returns, per evaluated instance (by id), its placeholder
     outputs -> the real names.
@@ -486,7 +482,7 @@ _RETRIES = 2  # new values drawn upstream of one failed instance, per stream pla
 class _Binder:
     """The bindings of one stream plan, with backtracking to upstream samplers."""
 
-    def __init__(self, run: _Run, needed: list[OptInstance], trace: _Trace) -> None:
+    def __init__(self, run: Run, needed: list[OptInstance], trace: _Trace) -> None:
         self.run, self.needed, self.trace = run, needed, trace
         self.position = {id(inst): k for k, inst in enumerate(needed)}
         self.real: dict[int, dict[str, str]] = {}  # id(evaluated instance) -> placeholder -> real
@@ -669,7 +665,7 @@ class _Evaluated:
     real: dict[int, dict[str, str]]  # id(evaluated instance) -> placeholder -> real name
 
 
-def _realize(run: _Run, done: _Evaluated, opt: list[OptInstance]) -> Plan | None:
+def _realize(run: Run, done: _Evaluated, opt: list[OptInstance]) -> Plan | None:
     """The evaluated plan with every placeholder replaced by the value its producer gave (and
     deferred placeholders by those of the same deferred instances on the real inputs), if it is
     still a plan over the real facts that needs no further evaluation; else None. Saves the
@@ -715,7 +711,7 @@ def _bind(
 
 
 def _plan_cost(
-    run: _Run, actions: tuple[tuple[str, tuple[str, ...]], ...], opt: list[OptInstance]
+    run: Run, actions: tuple[tuple[str, tuple[str, ...]], ...], opt: list[OptInstance]
 ) -> float:
     """The plan's cost as Fast Downward would count it (scaled costs, compiled domain)."""
     scaled = {t: float(max(0, round(v * COST_SCALE))) for t, v in run.costs.items()}
@@ -727,7 +723,8 @@ def _plan_cost(
 # -------------------------------------------------------------------------------- incremental
 
 
-def _incremental(run: _Run) -> PlanResult:
+def plan_incremental(run: Run) -> PlanResult:
+    """The ``incremental`` algorithm (see the module's documentation)."""
     store = run.store
     level = 0
     while run.iterations < run.config.max_iterations:
@@ -760,7 +757,7 @@ def _incremental(run: _Run) -> PlanResult:
     return _iteration_limit(run)
 
 
-def _one_level(run: _Run) -> bool:
+def _one_level(run: Run) -> bool:
     """Call every reachable, non-deferred, non-exhausted instance once; True if any produced,
     or may still produce (a sampler that yielded only ``None`` this time)."""
     store = run.store
@@ -782,7 +779,7 @@ def _one_level(run: _Run) -> bool:
 
 
 def _object_types(
-    run: _Run, opt: list[OptInstance], hidden: set[str] | None = None
+    run: Run, opt: list[OptInstance], hidden: set[str] | None = None
 ) -> dict[str, str]:
     """Every object's type, but those ``hidden`` from the classical task (the semantics that
     check plans range over all of them)."""
@@ -795,7 +792,7 @@ def _object_types(
     return types
 
 
-def _update_costs(run: _Run, opt: list[OptInstance]) -> None:
+def _update_costs(run: Run, opt: list[OptInstance]) -> None:
     """Function values for the real facts and the optimistic ones of ``opt``."""
     store = run.store
     run.costs = function_values(
@@ -810,7 +807,7 @@ def _update_costs(run: _Run, opt: list[OptInstance]) -> None:
 
 
 def _search(
-    run: _Run, opt: list[OptInstance]
+    run: Run, opt: list[OptInstance]
 ) -> tuple[tuple[tuple[str, tuple[str, ...]], ...], float] | PlanResult | None:
     """Search once (costs from :func:`_update_costs`): (actions, cost), None when the task is
     unsolvable, or a final result."""
@@ -947,7 +944,7 @@ class _Trace:
 
 
 def _retrace(
-    run: _Run, actions: tuple[tuple[str, tuple[str, ...]], ...], opt: list[OptInstance]
+    run: Run, actions: tuple[tuple[str, tuple[str, ...]], ...], opt: list[OptInstance]
 ) -> tuple[list[list[OptInstance]], _Trace] | None:
     """Per plan step (plus one last entry for the goal), the optimistic instances it relies on,
     producers first, each instance listed once (at its first use); None if the plan is not
@@ -999,7 +996,7 @@ def _replayed(
 
 
 def _final_plan(
-    run: _Run,
+    run: Run,
     actions: tuple[tuple[str, tuple[str, ...]], ...],
     per_step: list[list[OptInstance]],
     classical_cost: float,
@@ -1053,7 +1050,7 @@ def _cpu() -> float:
     return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
 
 
-def _unsolvable_message(run: _Run) -> str:
+def _unsolvable_message(run: Run) -> str:
     records = [*run.store.records.values(), *run.store.fluent_records.values()]
     n = len(records)
     exhausted = sum(r.exhausted for r in records)

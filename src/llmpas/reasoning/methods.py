@@ -22,11 +22,13 @@ checked by the validator (the loop's planner-backed check), the goal set most va
 on kept.
 
 A method is a :class:`Method` in :data:`REGISTRY` (its step-2 template, its first-look template if
-any, how its answers are read): a new method is one template file and one registry line.
-Templates live in ``llmpas/reasoning/templates/*.txt`` (``string.Template`` placeholders) and can
-be edited without touching code. Every answer is parsed and validated against the goal vocabulary
-(:mod:`llmpas.reasoning.goals`); a rejected answer is sent back with the errors, at most
-``repairs`` times. LLM output is only ever parsed.
+any, how its answers are read): a new method is one template file and one registry line, and
+:func:`method_names` (the choices of ``--method`` and ``--methods``) lists it. Templates live in
+``llmpas/reasoning/templates/*.txt`` (``string.Template`` placeholders) and can be edited without
+touching code; a method may also name a template file elsewhere by its absolute path. Every
+answer is parsed and validated against the goal vocabulary (:mod:`llmpas.reasoning.goals`); a
+rejected answer is sent back with the errors, at most ``repairs`` times.
+LLM output is only ever parsed.
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ from collections.abc import Callable, Collection, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from functools import cache
 from importlib import resources
+from pathlib import Path
 from string import Template
 from types import MappingProxyType
 
@@ -91,12 +94,29 @@ REGISTRY: Mapping[str, Method] = MappingProxyType(
         )
     }
 )
-METHODS = tuple(REGISTRY)
+METHODS = tuple(REGISTRY)  # the shipped methods (for the registered ones: method_names())
 PAPER_METHODS = ("flp", "flp-refer", "one-step", "progprompt", "inner-monologue")
+
+
+def method_names() -> tuple[str, ...]:
+    """The registered methods: the choices of the command line's ``--method``/``--methods``."""
+    return tuple(REGISTRY)
+
+
+def method(name: str) -> Method:
+    """The registered method ``name``; ``ValueError`` naming the choices otherwise."""
+    try:
+        return REGISTRY[name]
+    except KeyError:
+        raise ValueError(f"method must be one of {', '.join(REGISTRY)}; got {name!r}") from None
 
 
 @cache
 def template(name: str) -> Template:
+    """The template ``name``: ``templates/NAME.txt`` of this package, or the file ``name`` when
+    it is an absolute path ending in ``.txt``."""
+    if name.endswith(".txt") and Path(name).is_absolute():
+        return Template(Path(name).read_text(encoding="utf-8"))
     text = resources.files("llmpas.reasoning").joinpath("templates", f"{name}.txt")
     return Template(text.read_text(encoding="utf-8"))
 
@@ -207,8 +227,7 @@ class MethodConfig:
             raise ValueError(f"votes must be in [1, 16], got {self.votes}")
         if not 0 <= self.vote_temperature <= 2:
             raise ValueError(f"vote_temperature must be in [0, 2], got {self.vote_temperature}")
-        if self.method not in METHODS:
-            raise ValueError(f"method must be one of {', '.join(METHODS)}; got {self.method!r}")
+        method(self.method)  # ValueError naming the registered methods
         if self.decoding not in DECODINGS:
             raise ValueError(f"decoding must be one of {', '.join(DECODINGS)}")
         if self.repairs < 0:
@@ -271,10 +290,11 @@ def _constraints(
 _ACTION = re.compile(r"Robot action:\s*(.*)")
 
 
-def _reader(
+def answer_reader(
     situation: Situation, vocab: Vocabulary, config: MethodConfig, exclude: Collection[Literal] = ()
 ) -> tuple[Callable[[str], GoalParse], dict[str, object]]:
-    """How the method's answers are read, and how decoding is constrained."""
+    """How the method's answers are read (its :attr:`Method.reader`), and how decoding is
+    constrained."""
     reader = REGISTRY[config.method].reader
     if reader == "program":  # free text: a program cannot be grammar-bound here
         return (lambda text: parse_program(text, situation.calls, vocab)), {}
@@ -321,7 +341,7 @@ def propose(
     prompt = template(method.template).substitute(situation.fields(first_look))
     messages = [_system(), Message("user", prompt)]
     banned = set(exclude)
-    read, constrain = _reader(situation, vocab, config, _sorted(banned))
+    read, constrain = answer_reader(situation, vocab, config, _sorted(banned))
     parse = _parse(talk.ask("goals", messages, constrain), read, check)
     if config.votes > 1:
         parse = _vote(talk, messages, constrain, read, check, parse)
@@ -330,7 +350,7 @@ def propose(
         if prune and not banned.issuperset(parse.rejected):
             banned.update(parse.rejected)
             try:
-                constrain = _reader(situation, vocab, config, _sorted(banned))[1]
+                constrain = answer_reader(situation, vocab, config, _sorted(banned))[1]
             except ValueError:  # every literal is excluded: nothing left to ask for
                 break
         repairs += 1

@@ -19,7 +19,7 @@ from llmpas.worlds.api import RunOptions
 from llmpas.worlds.pybullet.motion import BaseChecker
 from llmpas.worlds.pybullet.plugin import WORLD
 from llmpas.worlds.pybullet.problem import static_facts
-from llmpas.worlds.pybullet.run import Scenario, scenarios
+from llmpas.worlds.pybullet.run import PyBulletScenario, scenarios
 from llmpas.worlds.pybullet.scene import TABLE_TOP, SceneConfig, open_scene
 from llmpas.worlds.pybullet.snapshot import is_blank
 from llmpas.worlds.pybullet.streams import Geometry, make_streams
@@ -93,7 +93,7 @@ def test_scenarios_are_valid_and_named() -> None:
     known = scenarios()
     assert {"nominal", "object-loss", "action-blocking"} <= set(known)
     with pytest.raises(ValueError):
-        Scenario("bad", "", SceneConfig(), "(and (On cube bowl))", unknown=("ghost",))
+        PyBulletScenario("bad", "", SceneConfig(), "(and (On cube bowl))", unknown=("ghost",))
     with pytest.raises(KeyError):
         once("no-such-scenario")
 

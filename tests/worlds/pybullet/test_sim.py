@@ -25,7 +25,7 @@ from llmpas.worlds.pybullet.kinematics import (
 )
 from llmpas.worlds.pybullet.motion import (
     BaseChecker,
-    PlannerConfig,
+    MotionConfig,
     base_line,
     grid_plan,
     interpolate,
@@ -263,7 +263,7 @@ def test_base_detours_are_deterministic_and_ompl_se2_agrees(scene: Scene) -> Non
     a = grid_plan(checker, start, goal, 0.05)
     assert a is not None and a == grid_plan(checker, start, goal, 0.05)
     assert all(checker.free(q) for q in a)
-    b = ompl_base_plan(checker, start, goal, PlannerConfig(timeout=5.0))
+    b = ompl_base_plan(checker, start, goal, MotionConfig(timeout=5.0))
     assert b is not None
     assert all(checker.free(q) for q in b)
     assert b[-1][:2] == pytest.approx(goal[:2])

@@ -1,4 +1,4 @@
-"""tamp2d problems: init and goal facts of a :class:`World` and the bound :class:`Problem`."""
+"""tamp2d problems: init and goal facts of a :class:`Scene` and the bound :class:`Problem`."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 
 from llmpas.examples._files import load_domain, load_streams
 from llmpas.examples.tamp2d.streams import implementations
-from llmpas.examples.tamp2d.world import World, make_world
+from llmpas.examples.tamp2d.world import Scene, make_world
 from llmpas.language.problem import Problem
 
 PACKAGE = "llmpas.examples.tamp2d"
@@ -17,7 +17,7 @@ PACKAGE = "llmpas.examples.tamp2d"
 Fact = tuple[Any, ...]
 
 
-def init_facts(world: World) -> list[Fact]:
+def init_facts(world: Scene) -> list[Fact]:
     """The start state: blocks at their start poses, the gripper empty at home."""
     facts: list[Fact] = [("Conf", world.home), ("AtConf", world.home), ("HandEmpty",), ("CanMove",)]
     facts += [("Region", r.name) for r in (world.table, *world.regions)]
@@ -32,7 +32,7 @@ def init_facts(world: World) -> list[Fact]:
     return facts
 
 
-def goal_facts(world: World) -> list[Fact]:
+def goal_facts(world: Scene) -> list[Fact]:
     """Every block inside its own goal region, and the gripper back home."""
     goals: list[Fact] = [
         ("In", b.name, r.name) for b, r in zip(world.blocks, world.regions, strict=True)

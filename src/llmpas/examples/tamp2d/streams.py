@@ -7,14 +7,14 @@ from functools import partial
 
 import numpy as np
 
-from llmpas.examples.tamp2d.world import GRIP_OFFSET, Conf, Pose, Traj, World, overlap
+from llmpas.examples.tamp2d.world import GRIP_OFFSET, Conf, Pose, Scene, Traj, overlap
 from llmpas.language.bindings import Implementation, cost, function, sampler, test
 
 STREAM_NAMES = ("sample-pose", "inverse-kinematics", "plan-motion", "test-cfree")
 
 
 def sample_pose(
-    world: World, rng: np.random.Generator, block: str, region: str
+    world: Scene, rng: np.random.Generator, block: str, region: str
 ) -> Iterator[tuple[Pose]]:
     """Endless uniform samples of poses that put ``block`` entirely inside ``region``."""
     b, r = world.block(block), world.region(region)
@@ -25,7 +25,7 @@ def sample_pose(
         yield (Pose(float(rng.uniform(lo, hi))),)
 
 
-def inverse_kinematics(world: World, block: str, pose: Pose) -> tuple[Conf] | None:
+def inverse_kinematics(world: Scene, block: str, pose: Pose) -> tuple[Conf] | None:
     """The gripper right above ``block`` at ``pose``; None when the pose is off the table."""
     b = world.block(block)
     if not world.table.contains(b, pose):
@@ -33,7 +33,7 @@ def inverse_kinematics(world: World, block: str, pose: Pose) -> tuple[Conf] | No
     return (Conf(pose.x, b.height + GRIP_OFFSET),)
 
 
-def plan_motion(world: World, q1: Conf, q2: Conf) -> tuple[Traj] | None:
+def plan_motion(world: Scene, q1: Conf, q2: Conf) -> tuple[Traj] | None:
     """Up to travel height, across, down: clear of every block, held or standing."""
     if not (_in_workspace(world, q1) and _in_workspace(world, q2)):
         return None
@@ -43,26 +43,26 @@ def plan_motion(world: World, q1: Conf, q2: Conf) -> tuple[Traj] | None:
     return (Traj(tuple(path)),)
 
 
-def _in_workspace(world: World, q: Conf) -> bool:
+def _in_workspace(world: Scene, q: Conf) -> bool:
     t = world.table
     return t.lo <= q.x <= t.hi and 0.0 < q.y <= world.travel_height
 
 
-def test_cfree(world: World, block1: str, pose1: Pose, block2: str, pose2: Pose) -> bool:
+def test_cfree(world: Scene, block1: str, pose1: Pose, block2: str, pose2: Pose) -> bool:
     """The footprints of the two blocks do not overlap (a block never collides with itself)."""
     if block1 == block2:
         return True
     return not overlap(world.block(block1), pose1, world.block(block2), pose2)
 
 
-def distance(world: World, q1: Conf, q2: Conf) -> float:
+def distance(world: Scene, q1: Conf, q2: Conf) -> float:
     """The length of the trajectory :func:`plan_motion` makes from ``q1`` to ``q2``."""
     top = world.travel_height
     return abs(top - q1.y) + abs(q2.x - q1.x) + abs(top - q2.y)
 
 
 def implementations(
-    world: World, rng: np.random.Generator, deferred: Collection[str] = ()
+    world: Scene, rng: np.random.Generator, deferred: Collection[str] = ()
 ) -> dict[str, Implementation]:
     """Every stream and function of ``stream.pddl`` bound to ``world``; ``deferred`` streams are
     left for the executor."""

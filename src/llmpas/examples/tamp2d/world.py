@@ -71,7 +71,7 @@ class Interval:
 
 
 @dataclass(frozen=True)
-class World:
+class Scene:
     """One instance: blocks (block i's goal is region i), their start poses, the gripper home."""
 
     blocks: tuple[BlockSpec, ...]
@@ -109,7 +109,7 @@ def overlap(b1: BlockSpec, p1: Pose, b2: BlockSpec, p2: Pose) -> bool:
 # ------------------------------------------------------------------------------ generation
 
 
-def make_world(n_blocks: int, seed: int) -> World:
+def make_world(n_blocks: int, seed: int) -> Scene:
     """A random instance with ``n_blocks`` blocks; every goal region has room for its block."""
     if n_blocks < 1:
         raise ValueError(f"tamp2d needs at least 1 block, got {n_blocks}")
@@ -121,7 +121,7 @@ def make_world(n_blocks: int, seed: int) -> World:
     regions, table = _layout(blocks, rng)
     start = _start_poses(blocks, regions, table, rng)
     travel = 2.0 * max(b.height for b in blocks) + 2 * GRIP_OFFSET + 0.2
-    return World(blocks, regions, table, start, Conf(table.lo, travel), travel)
+    return Scene(blocks, regions, table, start, Conf(table.lo, travel), travel)
 
 
 def _layout(

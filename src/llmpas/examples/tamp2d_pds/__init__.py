@@ -3,14 +3,14 @@ families ``mirror`` and ``packed`` (see :mod:`.world`); plans are checked by :mo
 
 from llmpas.examples.tamp2d_pds.problem import PACKAGE, goal_facts, init_facts, make_problem
 from llmpas.examples.tamp2d_pds.streams import DEFERRABLE, STREAM_NAMES, implementations
-from llmpas.examples.tamp2d_pds.world import FAMILIES, World, make_world
+from llmpas.examples.tamp2d_pds.world import FAMILIES, Scene, make_world
 
 __all__ = [
     "DEFERRABLE",
     "FAMILIES",
     "PACKAGE",
     "STREAM_NAMES",
-    "World",
+    "Scene",
     "goal_facts",
     "implementations",
     "init_facts",

@@ -1,4 +1,4 @@
-"""pds-tamp2d problems: the init and goal of a :class:`World`, bound to the streams."""
+"""pds-tamp2d problems: the init and goal of a :class:`Scene`, bound to the streams."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import numpy as np
 from llmpas.examples._files import load_domain, load_streams
 from llmpas.examples.tamp2d_pds.geometry import Pose
 from llmpas.examples.tamp2d_pds.streams import DEFERRABLE, implementations
-from llmpas.examples.tamp2d_pds.world import World, make_world
+from llmpas.examples.tamp2d_pds.world import Scene, make_world
 from llmpas.language.problem import Problem
 
 PACKAGE = "llmpas.examples.tamp2d_pds"
@@ -19,7 +19,7 @@ MANIPULATION_COST = 1.0  # (Cost): the cost of a pick or a place
 Fact = tuple[Any, ...]
 
 
-def init_facts(world: World) -> list[Fact]:
+def init_facts(world: Scene) -> list[Fact]:
     """Robots at home with empty hands; blocks at their start poses; where each may be put."""
     facts: list[Fact] = []
     for r, q in zip(world.robots, world.homes, strict=True):
@@ -35,7 +35,7 @@ def init_facts(world: World) -> list[Fact]:
     return facts
 
 
-def goal_facts(world: World) -> list[Fact]:
+def goal_facts(world: Scene) -> list[Fact]:
     """Every block at its goal pose or in its goal region; every robot home, its hand empty."""
     goals: list[Fact] = [
         ("AtPose", b.name, g) if isinstance(g, Pose) else ("In", b.name, g.name)
@@ -46,7 +46,7 @@ def goal_facts(world: World) -> list[Fact]:
     return goals
 
 
-def problem_for(world: World, seed: int, deferred: Collection[str] = DEFERRABLE) -> Problem:
+def problem_for(world: Scene, seed: int, deferred: Collection[str] = DEFERRABLE) -> Problem:
     """The planning problem of ``world``; samplers draw from an rng seeded with ``seed``.
     ``deferred`` streams are marked deferred (used when the planner's ``defer`` is on)."""
     rng = np.random.default_rng([seed, 7])
@@ -63,7 +63,7 @@ def problem_for(world: World, seed: int, deferred: Collection[str] = DEFERRABLE)
 
 def make_problem(
     family: str, n_blocks: int, seed: int, deferred: Collection[str] = DEFERRABLE
-) -> tuple[World, Problem]:
+) -> tuple[Scene, Problem]:
     """The world of ``family`` with ``n_blocks`` blocks generated from ``seed``, and its problem."""
     world = make_world(family, n_blocks, seed)
     return world, problem_for(world, seed, deferred)

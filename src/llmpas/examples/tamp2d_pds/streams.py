@@ -1,6 +1,6 @@
 """Python implementations of the pds-tamp2d streams, bound by name to ``stream.pddl``.
 
-Every stream is a plain function of the :class:`World` (and a seeded rng for samplers): poses
+Every stream is a plain function of the :class:`Scene` (and a seeded rng for samplers): poses
 and grasps are sampled, IK and motions are computed and collision-checked against the fixed
 obstacles (the streams do not see where movable blocks are: that is the planner's ``CFree``).
 """
@@ -26,7 +26,7 @@ from llmpas.examples.tamp2d_pds.geometry import (
     sample_path,
     swept_hits,
 )
-from llmpas.examples.tamp2d_pds.world import World
+from llmpas.examples.tamp2d_pds.world import Scene
 from llmpas.language.bindings import Implementation, cost, function, sampler, test
 
 STREAM_NAMES = (
@@ -43,7 +43,7 @@ MOVE_COST = 1.0  # fixed part of every move's cost
 
 
 def sample_pose(
-    world: World, rng: np.random.Generator, block: str, region: str
+    world: Scene, rng: np.random.Generator, block: str, region: str
 ) -> Iterator[tuple[Pose]]:
     """Uniform poses of ``block`` on the ground inside ``region``, clear of the fixed obstacles."""
     b, r = world.block(block), world.region(region)
@@ -60,7 +60,7 @@ def sample_pose(
         yield (p,)
 
 
-def sample_grasp(world: World, rng: np.random.Generator, block: str) -> Iterator[tuple[Grasp]]:
+def sample_grasp(world: Scene, rng: np.random.Generator, block: str) -> Iterator[tuple[Grasp]]:
     """Suction on the middle of the top face first, then anywhere the gripper fits on it."""
     b = world.block(block)
     dy = b.height / 2 + GRIPPER_HEIGHT / 2
@@ -70,7 +70,7 @@ def sample_grasp(world: World, rng: np.random.Generator, block: str) -> Iterator
         yield (Grasp(round(float(rng.uniform(-room, room)), 6), dy),)
 
 
-def inverse_kinematics(world: World, block: str, pose: Pose, grasp: Grasp) -> tuple[Conf] | None:
+def inverse_kinematics(world: Scene, block: str, pose: Pose, grasp: Grasp) -> tuple[Conf] | None:
     """The gripper conf holding ``block`` at ``pose`` with ``grasp``, if the gripper there and
     the straight approach from travel height are clear of the fixed obstacles."""
     q = grasp_conf(pose, grasp)
@@ -82,7 +82,7 @@ def inverse_kinematics(world: World, block: str, pose: Pose, grasp: Grasp) -> tu
     return (q,)
 
 
-def plan_motion(world: World, q1: Conf, q2: Conf) -> tuple[Traj] | None:
+def plan_motion(world: Scene, q1: Conf, q2: Conf) -> tuple[Traj] | None:
     """Up to travel height, across, down; None unless every point of it (with a block hanging
     below the gripper while at travel height) is clear of the fixed obstacles."""
     if not (_in_workspace(world, q1) and _in_workspace(world, q2)):
@@ -94,19 +94,19 @@ def plan_motion(world: World, q1: Conf, q2: Conf) -> tuple[Traj] | None:
     return (Traj(path),)
 
 
-def _in_workspace(world: World, q: Conf) -> bool:
+def _in_workspace(world: Scene, q: Conf) -> bool:
     g = world.ground
     return g.lo <= q.x <= g.hi and GRIPPER_HEIGHT / 2 <= q.y <= world.carry + 1e-9
 
 
-def _hits_obstacles(world: World, path: tuple[Conf, ...]) -> bool:
+def _hits_obstacles(world: Scene, path: tuple[Conf, ...]) -> bool:
     if not world.obstacles:
         return False
     hits = swept_hits(sample_path(path), GRIPPER_HALF, list(world.obstacles))
     return bool(hits.any())
 
 
-def _hangs_into_obstacles(world: World, q1: Conf, q2: Conf) -> bool:
+def _hangs_into_obstacles(world: Scene, q1: Conf, q2: Conf) -> bool:
     """The traverse at travel height with the tallest block hanging below the gripper."""
     if not world.obstacles:
         return False
@@ -116,25 +116,25 @@ def _hangs_into_obstacles(world: World, q1: Conf, q2: Conf) -> bool:
     return bool(swept_hits(sample_path(line), half, list(world.obstacles)).any())
 
 
-def test_cfree(world: World, block1: str, pose1: Pose, block2: str, pose2: Pose) -> bool:
+def test_cfree(world: Scene, block1: str, pose1: Pose, block2: str, pose2: Pose) -> bool:
     """The two blocks' rectangles do not overlap (a block never collides with itself)."""
     if block1 == block2:
         return True
     return not overlaps(world.block(block1).rect(pose1), world.block(block2).rect(pose2))
 
 
-def test_contain(world: World, block: str, pose: Pose, region: str) -> bool:
+def test_contain(world: Scene, block: str, pose: Pose, region: str) -> bool:
     return world.region(region).contains(world.block(block), pose)
 
 
-def distance(world: World, q1: Conf, q2: Conf) -> float:
+def distance(world: Scene, q1: Conf, q2: Conf) -> float:
     """The cost of a move: ``MOVE_COST`` plus the length of the path :func:`plan_motion` makes."""
     up = abs(world.carry - q1.y) + abs(world.carry - q2.y)
     return MOVE_COST + up + abs(q2.x - q1.x)
 
 
 def implementations(
-    world: World, rng: np.random.Generator, deferred: Collection[str] = DEFERRABLE
+    world: Scene, rng: np.random.Generator, deferred: Collection[str] = DEFERRABLE
 ) -> dict[str, Implementation]:
     """Every stream and function of ``stream.pddl`` bound to ``world``; ``deferred`` streams are
     marked deferred (the planner leaves them to execution when its ``defer`` is on)."""

@@ -40,7 +40,7 @@ from llmpas.examples.tamp2d_pds.geometry import (
     swept_hits,
 )
 from llmpas.examples.tamp2d_pds.streams import distance, test_cfree, test_contain
-from llmpas.examples.tamp2d_pds.world import World
+from llmpas.examples.tamp2d_pds.world import Scene
 from llmpas.language.logic import Atom, FuncTerm
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics, replay
@@ -70,7 +70,7 @@ class Invalid(Exception):
     """A plan failed a check (internal: becomes an invalid :class:`Validation`)."""
 
 
-def validate(world: World, problem: Problem, plan: Plan) -> Validation:
+def validate(world: Scene, problem: Problem, plan: Plan) -> Validation:
     """Evaluate ``plan``'s deferred streams, then replay it and simulate it (module docstring)."""
     try:
         values = complete_values(problem, plan)
@@ -109,7 +109,7 @@ def complete_values(problem: Problem, plan: Plan) -> dict[str, Any]:
 
 
 def check_replay(
-    world: World, problem: Problem, plan: Plan, steps: list[Step], values: Mapping[str, Any]
+    world: Scene, problem: Problem, plan: Plan, steps: list[Step], values: Mapping[str, Any]
 ) -> float:
     """The plan's cost, replayed on the real values; :class:`Invalid` if it does not replay."""
     claimed = {a for a in plan.certified if a.predicate not in TEST_PREDICATES}
@@ -128,7 +128,7 @@ def check_replay(
     return result.cost
 
 
-def recomputed_tests(world: World, facts: set[Atom], values: Mapping[str, Any]) -> set[Atom]:
+def recomputed_tests(world: Scene, facts: set[Atom], values: Mapping[str, Any]) -> set[Atom]:
     """``CFree`` for every pair of (block, pose) in ``facts``, ``Contain`` for every pose and
     region its block may be put in, computed with this module's geometry."""
     poses = sorted({a.args for a in facts if a.predicate == "pose"})
@@ -153,7 +153,7 @@ def recomputed_tests(world: World, facts: set[Atom], values: Mapping[str, Any]) 
 class _Scene:
     """The simulated world during a geometric check."""
 
-    world: World
+    world: Scene
     poses: dict[str, Pose]  # blocks standing on the ground
     confs: dict[str, Conf]
     held: dict[str, tuple[str, Grasp] | None]
@@ -176,7 +176,7 @@ class _Scene:
 
 
 def check_geometry(
-    world: World, problem: Problem, plan: Plan, steps: list[Step], values: Mapping[str, Any]
+    world: Scene, problem: Problem, plan: Plan, steps: list[Step], values: Mapping[str, Any]
 ) -> None:
     scene = _Scene(
         world,

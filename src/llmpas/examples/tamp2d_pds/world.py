@@ -22,7 +22,7 @@ MAX_BLOCKS = 40
 
 
 @dataclass(frozen=True)
-class World:
+class Scene:
     """One instance: blocks, their start poses and goals (a pose or a region per block), the
     ground, fixed obstacles, and robots with their home confs (also their goal confs)."""
 
@@ -59,7 +59,7 @@ class World:
         return max(b.height for b in self.blocks)
 
 
-def make_world(family: str, n_blocks: int, seed: int) -> World:
+def make_world(family: str, n_blocks: int, seed: int) -> Scene:
     """A ``family`` instance with ``n_blocks`` blocks; the same arguments give the same world."""
     if family not in FAMILIES:
         raise ValueError(f"unknown family {family!r}; families are {', '.join(FAMILIES)}")
@@ -83,7 +83,7 @@ def _carry(blocks: tuple[Block, ...], obstacles: tuple[Rect, ...]) -> float:
     return round(top + hang + 0.5, 3)
 
 
-def _mirror(n: int, rng: np.random.Generator) -> World:
+def _mirror(n: int, rng: np.random.Generator) -> Scene:
     blocks = _blocks(n, rng, (1.0, 1.6))
     wall = Rect(-0.15, 0.0, 0.15, float(rng.uniform(1.5, 2.0)))
     x = wall.x1 + float(rng.uniform(0.5, 1.0))
@@ -96,12 +96,12 @@ def _mirror(n: int, rng: np.random.Generator) -> World:
     ground = Region("ground", -extent, extent)
     carry = _carry(blocks, (wall,))
     homes = (Conf(-extent + 0.5, carry), Conf(extent - 0.5, carry))
-    return World(
+    return Scene(
         "mirror", blocks, tuple(start), goals, ground, (), (wall,), ("r0", "r1"), homes, carry
     )
 
 
-def _packed(n: int, rng: np.random.Generator) -> World:
+def _packed(n: int, rng: np.random.Generator) -> Scene:
     blocks = _blocks(n, rng, (1.0, 1.3))
     slot_width = 1.3 * float(rng.uniform(1.05, 1.2))  # wider than any block, narrower than two
     buffer = float(rng.uniform(3.0, 4.0)) * slot_width  # free ground left of the slots
@@ -118,7 +118,7 @@ def _packed(n: int, rng: np.random.Generator) -> World:
         where = {cycle[k]: cycle[(k + 1) % n] for k in range(n)}
         start = [blocks[i].resting(_centre(slots[where[i]], blocks[i], rng)) for i in range(n)]
     carry = _carry(blocks, ())
-    return World(
+    return Scene(
         "packed",
         blocks,
         tuple(start),
@@ -137,4 +137,4 @@ def _centre(slot: Region, block: Block, rng: np.random.Generator) -> float:
     return (slot.lo + slot.hi) / 2 + float(rng.uniform(-room, room)) * 0.5
 
 
-__all__ = ["FAMILIES", "MAX_BLOCKS", "World", "make_world"]
+__all__ = ["FAMILIES", "MAX_BLOCKS", "Scene", "make_world"]

@@ -117,6 +117,7 @@ from types import MappingProxyType
 from typing import Any
 
 from llmpas.errors import InputError
+from llmpas.fields import Fields, show
 from llmpas.inputs import read_toml
 from llmpas.language.errors import PddlSyntaxError
 from llmpas.language.sexpr import SList, Sym, parse_all
@@ -387,74 +388,19 @@ def _names(names: Any) -> str:
     return ", ".join(sorted(names)) or "none"
 
 
-def _fmt(value: Any) -> str:
-    return repr(value) if isinstance(value, str) else str(value)
+_fmt = show
 
 
-class _Parser:
+class _Parser(Fields):
+    """The scenario's fields: the shared TOML readers (:class:`~llmpas.fields.Fields`) and the
+    household's own (properties, catalogue objects, places, events, ...)."""
+
     def __init__(self, source: str, layout: Layout, catalogue: Mapping[str, ObjectSpec]) -> None:
-        self.source = source
+        super().__init__(source, ScenarioError)
         self.layout = layout
         self.catalogue = catalogue
 
-    def fail(self, where: str, message: str) -> ScenarioError:
-        return ScenarioError(f"{self.source}: {where}: {message}")
-
     # ------------------------------------------------------------------------ field readers
-
-    def table(self, value: Any, where: str, allowed: tuple[str, ...]) -> Mapping[str, Any]:
-        if not isinstance(value, Mapping):
-            raise self.fail(where, f"must be a table, got {_fmt(value)}")
-        for key in value:
-            if key not in allowed:
-                raise self.fail(
-                    f"{where}.{key}" if where else key,
-                    f"unknown field; fields: {', '.join(allowed)}",
-                )
-        return value
-
-    def array(self, value: Any, where: str) -> list[Any]:
-        if not isinstance(value, list):
-            raise self.fail(where, f"must be an array, got {_fmt(value)}")
-        return value
-
-    def string(self, value: Any, where: str) -> str:
-        if not isinstance(value, str) or not value:
-            raise self.fail(where, f"must be a non-empty string, got {_fmt(value)}")
-        return value
-
-    def number(self, value: Any, where: str) -> float:
-        if (
-            isinstance(value, bool)
-            or not isinstance(value, int | float)
-            or not math.isfinite(value)
-        ):
-            raise self.fail(where, f"must be a finite number, got {_fmt(value)}")
-        return float(value)
-
-    def integer(self, value: Any, where: str, minimum: int | None = None) -> int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise self.fail(where, f"must be an integer, got {_fmt(value)}")
-        if minimum is not None and value < minimum:
-            raise self.fail(where, f"must be at least {minimum}, got {value}")
-        return value
-
-    def boolean(self, value: Any, where: str) -> bool:
-        if not isinstance(value, bool):
-            raise self.fail(where, f"must be true or false, got {_fmt(value)}")
-        return value
-
-    def probability(self, value: Any, where: str) -> float:
-        p = self.number(value, where)
-        if not 0.0 <= p <= 1.0:
-            raise self.fail(where, f"must be a probability in [0, 1], got {_fmt(value)}")
-        return p
-
-    def sigma(self, value: Any, where: str) -> float:
-        s = self.number(value, where)
-        if s < 0.0:
-            raise self.fail(where, f"must be >= 0, got {_fmt(value)}")
-        return s
 
     def properties(self, value: Any, where: str) -> frozenset[str]:
         out = set()

@@ -46,7 +46,7 @@ class KitchenSearch:
         return obj in self.known and believed_lost(self.belief, obj, place)
 
 
-class Scenario(Protocol):
+class KitchenScenario(Protocol):
     @property
     def name(self) -> str: ...
 
@@ -57,7 +57,7 @@ class Scenario(Protocol):
 class KitchenSession:
     """A session's name and task (its scenario's) and belief (its context's)."""
 
-    scenario: Scenario
+    scenario: KitchenScenario
     context: Context
 
     @property

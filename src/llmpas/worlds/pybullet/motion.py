@@ -63,7 +63,7 @@ def wrap(a: float) -> float:
 
 
 @dataclass(frozen=True)
-class PlannerConfig:
+class MotionConfig:
     timeout: float = 3.0  # seconds for RRT-Connect
     seed: int = 0  # OMPL's random numbers, with each query's end points (motion_seed)
     resolution: float = 0.05  # max joint step (rad) or base step (m) between checked states
@@ -96,7 +96,7 @@ def _solve(
     goal: Sequence[float],
     read: Callable[[object], tuple[float, ...]],
     write: Callable[[object, Sequence[float]], None],
-    config: PlannerConfig,
+    config: MotionConfig,
     resolution: float,
 ) -> list[Conf] | None:
     _ob, og = _ompl()
@@ -142,11 +142,11 @@ def plan_arm(
     start: Sequence[float],
     goal: Sequence[float],
     collision: Collision,
-    config: PlannerConfig | None = None,
+    config: MotionConfig | None = None,
 ) -> list[Conf] | None:
     """A collision-free joint path from ``start`` to ``goal`` (dense: steps <= resolution), or
     None. The arm is restored afterwards."""
-    cfg = config or PlannerConfig()
+    cfg = config or MotionConfig()
     limits = arm_limits(scene)
     with preserved(scene):
         if collision.collides(start) or collision.collides(goal):
@@ -274,10 +274,10 @@ def _turn(q: Pose2, yaw: float, step: float) -> list[Pose2]:
 
 
 def plan_base(
-    checker: BaseChecker, start: Pose2, goal: Pose2, config: PlannerConfig | None = None
+    checker: BaseChecker, start: Pose2, goal: Pose2, config: MotionConfig | None = None
 ) -> list[Pose2] | None:
     """A collision-free base path (turn-drive-turn pieces), or None."""
-    cfg = config or PlannerConfig()
+    cfg = config or MotionConfig()
     start, goal = (start[0], start[1], wrap(start[2])), (goal[0], goal[1], wrap(goal[2]))
     if not checker.free(goal):
         return None
@@ -399,7 +399,7 @@ def _astar(
 
 
 def ompl_base_plan(
-    checker: BaseChecker, start: Pose2, goal: Pose2, cfg: PlannerConfig
+    checker: BaseChecker, start: Pose2, goal: Pose2, cfg: MotionConfig
 ) -> list[Pose2] | None:
     """SE(2) RRT-Connect (a last resort: its random seed is OMPL's own)."""
     ob, _ = _ompl()

@@ -31,7 +31,7 @@ from llmpas.worlds.pybullet.decomposition import ExplorationConfig, build_specs,
 from llmpas.worlds.pybullet.problem import make_problem
 from llmpas.worlds.pybullet.reasoning import environment, prompt_tables, vocabulary
 from llmpas.worlds.pybullet.run import (
-    Scenario,
+    PyBulletScenario,
     belief_for,
     goal_holds,
     resolve,
@@ -63,10 +63,10 @@ def table_search(config: SceneConfig, belief: Belief) -> KitchenSearch:
 class PyBulletSession(KitchenSession):
     """One scenario's simulation, belief and execution context, across planning rounds."""
 
-    scenario: Scenario
+    scenario: PyBulletScenario
 
     def __init__(
-        self, scenario: Scenario, plugin: PyBulletPlugin, options: RunOptions, client: int
+        self, scenario: PyBulletScenario, plugin: PyBulletPlugin, options: RunOptions, client: int
     ):
         self.scenario = scenario
         self.seed = scenario.seed if options.seed is None else options.seed
@@ -145,7 +145,8 @@ class PyBulletPlugin:
 
     @contextmanager
     def open(self, scenario: Any, options: RunOptions) -> Iterator[PyBulletSession]:
-        """``scenario``: a :class:`Scenario` or a shipped name (KeyError naming the known)."""
+        """``scenario``: a :class:`PyBulletScenario` or a shipped name (KeyError naming the
+        known)."""
         scenario = resolve(scenario)
         with open_client(options.gui) as client:
             yield PyBulletSession(scenario, self, options, client)

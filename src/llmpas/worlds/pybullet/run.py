@@ -35,7 +35,7 @@ log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class Scenario:
+class PyBulletScenario:
     """A world, what the robot believes, a goal, and what happens behind the robot's back."""
 
     name: str
@@ -99,13 +99,13 @@ def _four_tables() -> tuple[TableConfig, ...]:
     )
 
 
-def scenarios() -> dict[str, Scenario]:
+def scenarios() -> dict[str, PyBulletScenario]:
     goal = "(and (On cube bowl))"
     blocker = ObjectConfig("black_cube", "cube", "table2", 0.5, 0.3, "black")
     return {
         s.name: s
         for s in (
-            Scenario(
+            PyBulletScenario(
                 "nominal",
                 "Put the green cube from table1 into the bowl on table2. Tolerable disturbances: "
                 "odometry and detection noise, believed positions off by a few centimetres, and "
@@ -117,7 +117,7 @@ def scenarios() -> dict[str, Scenario]:
                 belief_noise=0.02,
                 event_jitter=0.08,
             ),
-            Scenario(
+            PyBulletScenario(
                 "object-loss",
                 "Object loss that needs reasoning: while the robot drives to table1 for the "
                 "cube, someone carries the cube to table3, behind the robot, where no camera "
@@ -130,7 +130,7 @@ def scenarios() -> dict[str, Scenario]:
                 events=(Event("move_base", 1, "cube", "table3", 0.3, 0.2),),
                 event_jitter=0.05,
             ),
-            Scenario(
+            PyBulletScenario(
                 "object-loss-seen",
                 "Object loss the robot sees: while it drives to table1 for the cube, someone "
                 "moves the cube to table2 (the bowl's table), which the robot's mast camera "
@@ -141,7 +141,7 @@ def scenarios() -> dict[str, Scenario]:
                 events=(Event("move_base", 1, "cube", "table2", 0.35, -0.3),),
                 event_jitter=0.08,
             ),
-            Scenario(
+            PyBulletScenario(
                 "action-blocking",
                 "Action blocking: put the green cube into the bowl. The bowl already holds the "
                 "black cube, which the robot does not know about; the bowl holds one object.",
@@ -155,7 +155,7 @@ def scenarios() -> dict[str, Scenario]:
     }
 
 
-def setup_scene(scene: Scene, scenario: Scenario) -> None:
+def setup_scene(scene: Scene, scenario: PyBulletScenario) -> None:
     for obj, bowl in scenario.inside:
         at, _ = scene.pose(bowl)
         size = scene.config.obj(obj).size
@@ -163,7 +163,7 @@ def setup_scene(scene: Scene, scenario: Scenario) -> None:
     scene.settle(120)
 
 
-def belief_for(scene: Scene, scenario: Scenario, rng: np.random.Generator) -> Belief:
+def belief_for(scene: Scene, scenario: PyBulletScenario, rng: np.random.Generator) -> Belief:
     """The robot's initial belief: where it was told the objects are (the initial layout, with
     ``belief_noise``), nothing about the ``unknown`` ones."""
     poses: dict[str, ObjectPose | None] = {}
@@ -194,8 +194,8 @@ def goal_holds(scene: Scene, goal: str) -> bool:
     return bool(inside and cube[2] < bowl[2] + 0.08)
 
 
-def resolve(scenario: Scenario | str) -> Scenario:
-    if isinstance(scenario, Scenario):
+def resolve(scenario: PyBulletScenario | str) -> PyBulletScenario:
+    if isinstance(scenario, PyBulletScenario):
         return scenario
     known = scenarios()
     if scenario not in known:
@@ -215,7 +215,7 @@ def save_world(world: PyBulletWorld, folder: str | Path, about: dict[str, Any]) 
 
 
 __all__ = [
-    "Scenario",
+    "PyBulletScenario",
     "belief_for",
     "goal_holds",
     "resolve",

@@ -26,7 +26,7 @@ from llmpas.worlds.pybullet.kinematics import (
     solve_ik,
     top_grasp_orientation,
 )
-from llmpas.worlds.pybullet.motion import PlannerConfig, Pose2, plan_arm
+from llmpas.worlds.pybullet.motion import MotionConfig, Pose2, plan_arm
 from llmpas.worlds.pybullet.scene import FINGER_OPEN, HOME_CONF, Scene
 from llmpas.worlds.pybullet.values import ObjectPose, Vector
 
@@ -81,13 +81,13 @@ class Skills:
         scene: Scene,
         rng: np.random.Generator,
         config: SkillConfig | None = None,
-        planner: PlannerConfig | None = None,
+        planner: MotionConfig | None = None,
         ik: IKConfig | None = None,
     ) -> None:
         self.scene = scene
         self.rng = rng
         self.config = config or SkillConfig()
-        self.planner = planner or PlannerConfig()
+        self.planner = planner or MotionConfig()
         self.ik = ik or IKConfig()
         self.believed_base: Pose2 = scene.base_pose()
 

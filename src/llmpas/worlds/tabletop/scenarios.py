@@ -21,7 +21,7 @@ WORKSPACE = Rect(-0.45, -0.42, 0.45, -0.18)
 
 
 @dataclass(frozen=True)
-class Scenario:
+class TabletopScenario:
     """A scene, the task (objects to rest on regions), and what the robot is not told:
     ``inside`` (object, bowl) pairs start in the bowl; ``unknown`` objects are not believed
     anywhere."""
@@ -56,19 +56,19 @@ def scene(*extra: ObjectConfig) -> SceneConfig:
     return SceneConfig((TableConfig(TABLE, 0.0, 0.0),), objects, BASE, mount="pedestal")
 
 
-def scenarios() -> dict[str, Scenario]:
+def scenarios() -> dict[str, TabletopScenario]:
     task = (("green_cube", "bowl"),)
     black = ObjectConfig("black_cube", "cube", TABLE, 0.25, -0.3, "black")
     return {
         s.name: s
         for s in (
-            Scenario(
+            TabletopScenario(
                 "tabletop-nominal",
                 "A fixed Franka Panda puts the green cube into the empty bowl on its table.",
                 scene(),
                 task,
             ),
-            Scenario(
+            TabletopScenario(
                 "tabletop-blocking",
                 "Action blocking: the bowl already holds a black cube the robot does not know "
                 "about; a bowl holds one object.",
@@ -106,4 +106,4 @@ def prompt_tables(config: SceneConfig) -> PromptTables:
     )
 
 
-__all__ = ["Scenario", "prompt_tables", "scenarios", "vocabulary"]
+__all__ = ["TabletopScenario", "prompt_tables", "scenarios", "vocabulary"]

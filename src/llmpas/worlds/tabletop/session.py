@@ -40,7 +40,7 @@ from llmpas.worlds.pybullet.snapshot import save_media
 from llmpas.worlds.pybullet.streams import Geometry
 from llmpas.worlds.pybullet.values import BaseConf, BasePath, Grasp, ObjectPose
 from llmpas.worlds.pybullet.world import PyBulletWorld
-from llmpas.worlds.tabletop.scenarios import WORKSPACE, Scenario, prompt_tables, scenarios
+from llmpas.worlds.tabletop.scenarios import WORKSPACE, TabletopScenario, prompt_tables, scenarios
 
 
 class FixedGeometry(Geometry):
@@ -77,9 +77,9 @@ class FixedGeometry(Geometry):
 class TabletopSession(KitchenSession):
     """One scenario in one physics client; its belief carries over between rounds."""
 
-    scenario: Scenario
+    scenario: TabletopScenario
 
-    def __init__(self, scenario: Scenario, options: RunOptions, client: int) -> None:
+    def __init__(self, scenario: TabletopScenario, options: RunOptions, client: int) -> None:
         t0 = time.perf_counter()
         self.scenario = scenario
         seed = scenario.seed if options.seed is None else options.seed
