@@ -325,7 +325,7 @@ def test_rrt_connect_plans_the_same_path_whatever_ran_before(scene: Scene) -> No
     b = solve_ik(scene, (1.1, 0.4, 0.8), top_grasp_orientation(), rng, valid=col)
     c = solve_ik(scene, (1.0, 0.3, 0.7), top_grasp_orientation(), rng, valid=col)
     assert a is not None and b is not None and c is not None
-    config = PlannerConfig(resolution=0.05)
+    config = MotionConfig(resolution=0.05)
     first = plan_arm(scene, a, b, col, config)
     plan_arm(scene, c, a, col, config)  # another query in between draws random numbers
     assert first is not None and plan_arm(scene, a, b, col, config) == first
