@@ -410,8 +410,10 @@ def _cmd_pddlstream(args: argparse.Namespace, console: Console) -> int:
         }
         atomic_write(Path(args.summary), json.dumps(summary, indent=2) + "\n")
     if run.error:
-        raise CliError(run.error, ExitCode(run.exit_code) if run.exit_code in set(ExitCode)
-                       else ExitCode.FAILED)
+        raise CliError(
+            run.error,
+            ExitCode(run.exit_code) if run.exit_code in set(ExitCode) else ExitCode.FAILED,
+        )
     return run.exit_code
 
 

@@ -76,7 +76,7 @@ from llmpas.inputs import TOML_LIMIT, decode_text, parse_toml, read_bytes
 from llmpas.language.errors import PddlSyntaxError
 from llmpas.language.logic import Atom, Formula, Not
 from llmpas.language.problem import Problem
-from llmpas.language.sexpr import SExpr, SList, Sym, parse_all
+from llmpas.language.sexpr import SList, Sym, parse_all
 from llmpas.planning import PlannerConfig
 from llmpas.planning.config import Algorithm
 from llmpas.planning.result import PlanStatus
@@ -85,13 +85,14 @@ from llmpas.reasoning.llm import LLM, Request, Response
 from llmpas.reasoning.methods import Proposal
 from llmpas.reasoning.program import parse_program
 from llmpas.system import LLMFor, LoopResult, LoopSettings, close_loop, run
+from llmpas.worlds.api import holds
 from llmpas.worlds.household.decomposition import ExplorationConfig
 from llmpas.worlds.household.layout import kitchen
 from llmpas.worlds.household.plugin import WORLD, HouseholdSession, household_for
 from llmpas.worlds.household.reasoning import PROGRAM_CALLS, vocabulary
 from llmpas.worlds.household.scenario import Scenario, ScenarioError
 from llmpas.worlds.household.sim import HouseholdWorld
-from llmpas.worlds.household.state import HIDDEN, PROCESS_EFFECTS, TrueState
+from llmpas.worlds.household.state import HIDDEN, PROCESS_EFFECTS, TrueState, true_facts
 
 log = logging.getLogger(__name__)
 
@@ -374,32 +375,9 @@ def _check_success(e: SList, where: str, known: set[str]) -> None:
 
 
 def holds_in_truth(formula: str, truth: TrueState) -> bool:
-    """Whether the success formula holds on the simulator's true state."""
-    exprs = parse_all(formula, "judge.success")
-    if len(exprs) != 1 or not isinstance(exprs[0], SList):
-        raise ValueError(f"not one formula: {formula!r}")
-    return _holds(exprs[0], truth)
-
-
-def _holds(e: SExpr, truth: TrueState) -> bool:
-    assert isinstance(e, SList)
-    head = e.head()
-    if head == "and":
-        return all(_holds(i, truth) for i in e.items[1:])
-    if head == "or":
-        return any(_holds(i, truth) for i in e.items[1:])
-    if head == "not":
-        return not _holds(e.items[1], truth)
-    args = [str(a) for a in e.items[1:]]
-    if head == "on":
-        obj, region = args
-        p = truth.placements.get(obj)
-        return obj != truth.held and p is not None and p.region == region
-    if head == "holding":
-        return truth.held == args[0]
-    if head == "open":
-        return bool(truth.open.get(args[0], False))
-    return head in truth.properties.get(args[0], set())
+    """Whether the success formula holds on the simulator's true state: the one truth judge
+    (:func:`llmpas.worlds.api.holds`) over the true facts, as ``llmpas run`` judges a task."""
+    return holds(formula, true_facts(truth))
 
 
 # ------------------------------------------------------------------------------------ judging
@@ -538,7 +516,7 @@ def judge(
     first = first_anomaly(result)
     if first is None:
         verdict = Verdict.NO_ANOMALY
-    elif not result.success:
+    elif not result.believed:  # the loop's own verdict (``success`` is the truth's)
         verdict = Verdict.NOT_DONE
     elif not holds:
         verdict = Verdict.FALSE_DONE
@@ -563,7 +541,7 @@ def judge(
         task=task.name,
         category=task.category,
         verdict=verdict,
-        completed=result.success,
+        completed=bool(result.believed),
         resolution_length=resolution_length(result),
         anomaly=str(first[1].constraint) if first else "",
         rounds=len(result.rounds),
@@ -715,9 +693,9 @@ def _oracle_run(task: SuiteTask, config: LoopConfig) -> OracleRun:
                 f"{task.category.value} expects a violated {want}, but the anomaly is {c}",
             )
         )
-    if not result.success or not holds_in_truth(task.success, world.truth):
-        why = result.message if not result.success else "the true final state does not satisfy it"
-        limit = planner_limit(result) if not result.success else None
+    if not result.believed or not holds_in_truth(task.success, world.truth):
+        why = result.message if not result.believed else "the true final state does not satisfy it"
+        limit = planner_limit(result) if not result.believed else None
         verdict = (
             "unreachable: the oracle's resolution fails"
             if limit is None
@@ -835,8 +813,8 @@ def effective_issues(
         elif {as_search(g, lost, places) for g in p.goals} != want:
             shown = " ".join(map(str, p.goals))
             issues.append(Issue(task.source, where, f"{text}: the loop changes it to {shown}"))
-        elif not result.success or not holds_in_truth(task.success, traced.world.truth):
-            why = result.message if not result.success else "the true final state disagrees"
+        elif not result.believed or not holds_in_truth(task.success, traced.world.truth):
+            why = result.message if not result.believed else "the true final state disagrees"
             notes.append(
                 Issue(task.source, where, f"{text}: planned, but the task is not resolved: {why}")
             )
