@@ -597,8 +597,8 @@ def _add_execute(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> No
 
 
 def _llm(spec: str, record: str | None, world: str = "household", method: str = "flp") -> Any:
-    """``oracle`` | ``replan`` | ``replay:DIR`` | ``openai:MODEL[@BASE_URL]`` |
-    ``llama-cpp[:PATH]``."""
+    """The loop's LLM for a spec of any kind of the backend registry
+    (:data:`llmpas.reasoning.backends.registry.KINDS`)."""
     from llmpas.experiments.worlds import llm_for
 
     try:

@@ -27,6 +27,7 @@ from llmpas.experiments.jobs import (
     executor_from_args,
 )
 from llmpas.files import atomic_write
+from llmpas.reasoning.backends.registry import BACKENDS, choices
 
 ORACLE = "oracle"
 QUICK_TASKS = ("ol01-table2", "ab06-sink-mug", "sc06-apple-frozen-stove")
@@ -63,7 +64,7 @@ class AllConfig:
 
     def __post_init__(self) -> None:
         if not self.llm:
-            raise ValueError("llm must name a backend (oracle, replay:DIR, openai:..., llama-cpp)")
+            raise ValueError(f"llm must name a backend ({choices(('oracle', *BACKENDS))})")
         for name in ("jobs", "samples", "count"):
             if getattr(self, name) < 1:
                 raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
