@@ -43,3 +43,33 @@ def test_belief_and_truth_side_by_side(
     assert result.verdicts == shown
     assert result.status is (LoopStatus.DONE if success else LoopStatus.NOT_DONE)
     assert ("Belief and truth" in loop_markdown(result)) is (truth is not None)
+
+
+def test_the_package_re_exports_every_name_of_the_module_it_replaced() -> None:
+    import llmpas.recovery
+    import llmpas.system
+    import llmpas.system.recovery
+
+    before = {
+        "LLMFor",
+        "LoopResult",
+        "LoopSettings",
+        "LoopStatus",
+        "OnRound",
+        "Round",
+        "UNJUDGED",
+        "close_loop",
+        "counted",
+        "execute",
+        "loop_markdown",
+        "plan",
+        "run",
+        "run_once",
+        "save_loop",
+        "save_once",
+        "save_records",
+    }
+    assert before <= set(dir(llmpas.system))
+    assert set(llmpas.system.__all__) <= set(dir(llmpas.system))
+    for name in llmpas.system.recovery.__all__:
+        assert getattr(llmpas.recovery, name) is getattr(llmpas.system.recovery, name)
