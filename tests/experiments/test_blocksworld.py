@@ -246,3 +246,25 @@ def test_offline_model_replayed_from_cassettes(tmp_path: Path) -> None:
         assert o.syntax_errors == 0  # the grammar admits only well-formed plans
     # replay only reads: nothing was asked that had not been recorded
     assert sorted(p.name for p in (tmp_path / "cassettes").iterdir()) == recorded
+
+
+def test_when_the_optimal_search_fails_the_oracle_says_so_and_blames_no_answer(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """#23: at 10-12 blocks the optimal search hits its limit; the oracle used to answer an
+    empty plan, judged "no plan steps found: write one (action block ...) a line"."""
+    import llmpas.experiments.blocksworld as bw
+    from llmpas.experiments.blocks.tasks import Reference
+    from llmpas.planning.downward import ClassicalStatus
+
+    def out_of_time(task):  # type: ignore[no-untyped-def]
+        return Reference(ClassicalStatus.TIMEOUT, (), "search: time limit of 60 s reached")
+
+    monkeypatch.setattr(bw, "reference_plan", out_of_time)
+    config = BlocksConfig(methods=("oracle", "flp"), sizes=(3,), count=1, llm="oracle")
+    report = run_blocksworld(replace(config, out_dir=tmp_path), quiet())
+    assert {o.method for o in report.outcomes} == {"oracle", "flp"}
+    for o in report.outcomes:
+        assert not o.success and o.outcome == "no_reference"
+        assert "optimal search" in o.message and "time limit of 60 s" in o.message
+        assert "write one" not in o.message and o.optimal_length is None

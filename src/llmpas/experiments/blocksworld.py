@@ -19,7 +19,7 @@ from __future__ import annotations
 import argparse
 import logging
 import statistics
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -35,7 +35,7 @@ from llmpas.experiments.blocks.planners import (
     Settings,
     run_method,
 )
-from llmpas.experiments.blocks.plans import Step
+from llmpas.experiments.blocks.plans import Outcome, Step
 from llmpas.experiments.blocks.tasks import (
     OPTIMAL_SEARCH,
     Task,
@@ -56,6 +56,7 @@ from llmpas.experiments.jobs import (
     run_jobs,
 )
 from llmpas.files import atomic_write, save_figure, write_csv
+from llmpas.planning.downward import ClassicalStatus
 from llmpas.reasoning.backends.registry import BACKENDS, choices
 from llmpas.reasoning.llm import LLM
 from llmpas.reasoning.methods import template
@@ -128,6 +129,8 @@ class Payload:
     record: str | None
     settings: Settings
     model: LLM | None = None  # an LLM object instead of the spec (tests; one process)
+    # why there is no reference plan (the optimal search's status and message); "" when solved
+    reference_note: str = ""
 
 
 @dataclass(frozen=True)
@@ -217,6 +220,8 @@ def run_job(payload: Payload) -> dict[str, Any]:
         llm = ReferenceOracle(payload.reference)
     else:
         llm = build_llm(payload.llm, payload.record)
+    if isinstance(llm, ReferenceOracle) and payload.reference_note:
+        return _no_reference(payload)
     attempt = run_method(payload.method, problem, llm, payload.settings, task.domain_text)
     optimal = len(payload.reference) if payload.reference else None
     outcome = TaskResult(
@@ -241,6 +246,36 @@ def run_job(payload: Payload) -> dict[str, Any]:
         "plan": [str(s) for s in attempt.steps],
         "turns": [asdict(t) for t in attempt.turns],
     }
+
+
+def _no_reference(payload: Payload) -> dict[str, Any]:
+    """The oracle's row when Fast Downward found no optimal plan: a failure that says so (the
+    oracle has nothing to answer; no answer's format is to blame)."""
+    task = payload.task
+    outcome = TaskResult(
+        task.name,
+        task.size,
+        task.seed,
+        payload.method,
+        "" if payload.method == "oracle" else payload.llm,
+        False,
+        Outcome.NO_REFERENCE.value,
+        f"no reference plan: {payload.reference_note}",
+        0,
+        None,
+        0,
+        0,
+        0,
+        0.0,
+    )
+    return {**asdict(outcome), "first_look": "", "plan": [], "turns": []}
+
+
+def _reference_note(result: Mapping[str, Any]) -> str:
+    """Why the optimal search gave no plan ("" when it solved the task)."""
+    if result["status"] == ClassicalStatus.SOLVED.value:
+        return ""
+    return f"Fast Downward's optimal search: {result['status']}: {result['message']}".strip()
 
 
 def _reference_job(task: Task) -> dict[str, Any]:
@@ -281,6 +316,7 @@ def run_blocksworld(
         t.name: tuple(Step(p[0], tuple(p[1:])) for p in r["plan"])
         for t, r in zip(tasks, refs, strict=True)
     }
+    notes = {t.name: _reference_note(r) for t, r in zip(tasks, refs, strict=True)}
     llm_name = config.llm if llm is None else str(getattr(llm, "name", type(llm).__name__))
     prompts = fingerprint(
         [PROMPT_VERSION, domain_text(), *(template(n).template for n in TEMPLATES)]
@@ -291,7 +327,10 @@ def run_blocksworld(
         key_llm = llm_name if uses_llm else "none"
         settings = asdict(config.settings) if uses_llm else {}
         for t in tasks:
-            digest = fingerprint([*_task_key(t), references[t.name], settings, prompts, key_llm])
+            note = [notes[t.name]] if notes[t.name] else []  # keys of solved tasks unchanged
+            digest = fingerprint(
+                [*_task_key(t), references[t.name], settings, prompts, key_llm, *note]
+            )
             payload = Payload(
                 method,
                 t,
@@ -300,6 +339,7 @@ def run_blocksworld(
                 _str(config.record),
                 config.settings,
                 llm if uses_llm else None,
+                notes[t.name],
             )
             needs = llm_resources(config.llm) if uses_llm and llm is None else {}
             jobs.append(Job(f"{method}/{_safe(key_llm)}/{t.name}/{digest}", payload, needs))

@@ -143,6 +143,7 @@ class Outcome(enum.Enum):
     GOAL_NOT_REACHED = "goal_not_reached"  # every step ran, the goal does not hold
     SYNTAX_ERROR = "syntax_error"
     NO_PLAN = "no_plan"
+    NO_REFERENCE = "no_reference"  # the oracle had no plan to give: the optimal search failed
 
 
 @dataclass(frozen=True)
