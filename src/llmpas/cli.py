@@ -422,6 +422,7 @@ def _cmd_execute(args: argparse.Namespace, console: Console) -> int:
     if ep.anomaly is not None:
         console.print("[bold yellow]anomaly[/]: " + escape(ep.anomaly.describe()), highlight=False)
         return 1
+    _belief_and_truth(result, console)
     console.print(f"[bold red]{ep.status.value}[/]: {escape(ep.message or result.message)}")
     return 1
 
@@ -492,8 +493,8 @@ def _add_execute(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> No
 
 
 def _llm(spec: str, record: str | None, world: str = "household", method: str = "flp") -> Any:
-    """``oracle`` | ``replan`` | ``replay:DIR`` | ``openai:MODEL[@BASE_URL]`` |
-    ``llama-cpp[:PATH]``."""
+    """The loop's LLM for a spec of any kind of the backend registry
+    (:data:`llmpas.reasoning.backends.registry.KINDS`)."""
     from llmpas.experiments.worlds import llm_for
 
     try:
@@ -550,7 +551,14 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
         _web_report(args, console, **about)
     verdict = "[bold green]task done[/]" if result.success else "[bold red]not done[/]"
     console.print(f"{verdict}: {escape(printable(result.message, keep_newlines=False))}")
+    _belief_and_truth(result, console)
     return 0 if result.success else 1
+
+
+def _belief_and_truth(result: Any, console: Console) -> None:
+    """A line when the robot's belief and the world's truth disagree (a lookalike carried)."""
+    if result.truth is not None and result.believed != result.truth:
+        console.print(f"[bold yellow]belief and truth differ[/]: {result.verdicts}")
 
 
 def _replan_run(

@@ -24,6 +24,7 @@ from typing import Protocol, runtime_checkable
 from rich.console import Console
 
 from llmpas.experiments.jobs import ExecutorSpec
+from llmpas.reasoning.backends.registry import BACKENDS, choices
 
 ORACLE = "oracle"
 
@@ -57,7 +58,7 @@ class AllConfig:
 
     def __post_init__(self) -> None:
         if not self.llm:
-            raise ValueError("llm must name a backend (oracle, replay:DIR, openai:..., llama-cpp)")
+            raise ValueError(f"llm must name a backend ({choices(('oracle', *BACKENDS))})")
         for name in ("jobs", "samples", "count"):
             if getattr(self, name) < 1:
                 raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")

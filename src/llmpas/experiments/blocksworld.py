@@ -58,12 +58,13 @@ from llmpas.experiments.jobs import (
 )
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning.downward import ClassicalStatus
+from llmpas.reasoning.backends.registry import BACKENDS, choices
 from llmpas.reasoning.llm import LLM
 from llmpas.reasoning.methods import template
 
 log = logging.getLogger(__name__)
 
-LLM_KINDS = ("oracle", "replay", "openai", "llama-cpp")
+LLM_KINDS = ("oracle", *BACKENDS)  # the backend registry's kinds, and the reference oracle
 UPPER_BOUND = "upper bound"
 
 
@@ -107,9 +108,7 @@ class BlocksConfig:
             raise ValueError(f"jobs must be >= 1, got {self.jobs}")
         kind = self.llm.partition(":")[0]
         if kind not in LLM_KINDS:
-            raise ValueError(
-                f"llm {self.llm!r}: expected oracle, replay:DIR, openai:MODEL or llama-cpp[:PATH]"
-            )
+            raise ValueError(f"llm {self.llm!r}: expected {choices(LLM_KINDS)}")
         if self.domain is not None and self.problems is None:
             raise ValueError("--domain needs --problems (the problem files written for it)")
         if kind == "oracle" and self.record is not None:
@@ -192,7 +191,7 @@ class Report:
 
 
 def build_llm(spec: str, record: str | None) -> LLM:
-    """The backend for ``spec`` (not ``oracle``), built once per process."""
+    """The backend for ``spec`` (not ``oracle``), built once per process (:func:`backend`)."""
     llm: LLM = backend(spec, record)
     return llm
 

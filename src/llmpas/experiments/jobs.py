@@ -94,14 +94,16 @@ def backend(spec: str, record: str | None = None) -> Any:
 def add_llm_argument(
     p: argparse.ArgumentParser, oracle: str = "oracle", replan: bool = False
 ) -> None:
-    """The ``--llm`` option every experiment takes (``oracle`` says what the oracle is there;
-    ``replan``: the no-LLM baseline is offered too)."""
-    baseline = "replan (no LLM: the task restated) | " if replan else ""
+    """The ``--llm`` option every experiment takes, its choices from the backend registry
+    (``oracle`` says what the oracle is there; ``replan``: the no-LLM baseline is offered too)."""
+    from llmpas.reasoning.backends.registry import BACKENDS, choices
+
+    kinds = ["oracle", *(["replan"] if replan else []), *BACKENDS]
+    shown = {"replan": "replan (no LLM: the task restated)", "oracle": oracle}
     p.add_argument(
         "--llm",
         default="llama-cpp",
-        help=f"{oracle} | {baseline}replay:DIR | openai:MODEL[@BASE_URL] | llama-cpp[:PATH] "
-        "(default: the offline model)",
+        help=f"{choices(kinds, shown)} (default: the offline model)",
     )
 
 

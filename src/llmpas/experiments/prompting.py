@@ -76,6 +76,7 @@ from llmpas.experiments.worlds import LoopConfig, oracle_for
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning import PlannerConfig
 from llmpas.reasoning.assists import PROTOCOLS, Assists, ablation, parse_assists
+from llmpas.reasoning.backends.registry import BACKENDS, choices
 from llmpas.reasoning.llm import LLM
 from llmpas.reasoning.methods import (
     DECODINGS,
@@ -165,7 +166,7 @@ class PromptingConfig:
         if self.tasks is not None and not self.tasks:
             raise ValueError("tasks: give at least one task name (or None for all)")
         if not self.llm.strip():
-            raise ValueError("llm: give a backend (oracle, replay:DIR, openai:MODEL, llama-cpp)")
+            raise ValueError(f"llm: give a backend ({choices(('oracle', *BACKENDS))})")
 
 
 @dataclass(frozen=True)
@@ -190,7 +191,8 @@ class Payload:
 
 def build_llm(spec: str, record: str | None = None) -> LLM | LLMFor:
     """The backend for ``spec`` (``oracle``: the oracle factory), built once per process (a local
-    model is loaded once, not per job). ValueError for a bad spec."""
+    model is loaded once, not per job: :func:`~llmpas.experiments.jobs.backend`). ValueError
+    for a bad spec."""
     if spec == ORACLE:
         return oracle_for("household")
     llm: LLM = backend(spec, record)

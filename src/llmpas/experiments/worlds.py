@@ -21,7 +21,7 @@ from llmpas.errors import UsageError
 from llmpas.experiments.replan import REPLAN, Replan
 from llmpas.reasoning.backends.registry import make_backend
 from llmpas.reasoning.llm import LLM
-from llmpas.system import LLMFor, LoopResult, LoopSettings, OnRound, run
+from llmpas.system import LLMFactory, LLMFor, LoopResult, LoopSettings, OnRound, as_factory, run
 from llmpas.worlds.api import RunOptions, World
 
 WORLDS = MappingProxyType(
@@ -110,9 +110,11 @@ def oracle_for(world: str) -> LLMFor:
 
 def llm_for(
     spec: str, record: str | None = None, world: str = "household", method: str = "flp"
-) -> LLM | LLMFor:
-    """The backend for an ``--llm`` spec; ``oracle``: the world's labelled oracle; ``replan``:
-    no reasoning, the session's task restated (in ``method``'s answer form)."""
+) -> LLMFactory:
+    """The loop's LLM for an ``--llm`` spec (any kind of the backend registry,
+    :data:`~llmpas.reasoning.backends.registry.KINDS`), as the loop takes it: a factory of the
+    session. ``oracle``: the world's labelled oracle; ``replan``: no reasoning, the session's
+    task restated (in ``method``'s answer form); any other: that backend, :func:`fixed`."""
 
     def oracle(arg: str, rec: str | None) -> LLMFor:
         if rec:
@@ -124,7 +126,8 @@ def llm_for(
             raise ValueError("replan takes no argument and records nothing (it is no LLM)")
         return lambda session: Replan(session.task, method)
 
-    return make_backend(spec, record, {ORACLE: oracle, REPLAN: replan})
+    built = make_backend(spec, record, {ORACLE: oracle, REPLAN: replan})
+    return as_factory(built)
 
 
 @dataclass(frozen=True)

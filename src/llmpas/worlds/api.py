@@ -17,12 +17,17 @@ A **world** (:class:`World`) is a plug-in found by name (``household``, ``pybull
 :mod:`llmpas.system` plans, executes and asks the LLM; a world never does. Nothing here reads a
 world's true state except :meth:`Session.achieved` (a judge, afterwards) and a world's oracle,
 which lives in :mod:`llmpas.experiments`.
+
+**One truth judge.** A session whose world has a true state says so as facts
+(:class:`TrueFacts`: ``true_facts()``, in the domain's predicates); the task is then judged on
+them by :func:`holds`, the same for every world and for the suite's judge. A session without
+one keeps :meth:`Session.achieved` (None: the robot's belief decides).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping, Sequence, Set
 from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,8 +38,9 @@ from llmpas.execution.context import Context
 from llmpas.execution.csubbt import SubtreeSpec
 from llmpas.execution.executor import ExecutorConfig
 from llmpas.language.domain import Domain
-from llmpas.language.logic import Formula
+from llmpas.language.logic import And, Atom, Formula, Imply, Not, Or
 from llmpas.language.problem import Problem
+from llmpas.language.sexpr import SExpr, SList, Sym, parse_all
 from llmpas.planning import PlannerConfig
 from llmpas.planning.result import Plan
 from llmpas.reasoning.tables import PromptTables, Vocabulary
@@ -142,6 +148,68 @@ class Session(Protocol):
 
 
 @runtime_checkable
+class TrueFacts(Protocol):
+    """A session whose world has a true state: it judges the task on it (:func:`holds`)."""
+
+    def true_facts(self) -> frozenset[Atom]:
+        """The world's true state now, as ground facts in the domain's predicates (``(on O R)``
+        for an object at rest in R, ``(holding O)``, ``(open R)``, an object's states); what is
+        not among them is false."""
+        ...
+
+
+def holds(goal: Formula | str, facts: Set[Atom]) -> bool:
+    """Whether ``goal`` holds in ``facts``, read as a closed world (the one truth judge).
+
+    ``goal``: a ground formula of atoms, ``and``, ``or``, ``not`` and ``imply`` (``=``: the
+    same name), or its PDDL text (names read in lower case, as the domain reader does).
+    ValueError for anything else (a quantifier, a variable)."""
+    if isinstance(goal, str):
+        goal = _ground(goal)
+    if isinstance(goal, Atom):
+        if any(a.startswith("?") for a in goal.args):
+            raise ValueError(f"{goal}: a truth judge needs ground atoms")
+        if goal.predicate == "=" and len(goal.args) == 2:
+            return goal.args[0] == goal.args[1]
+        return goal in facts
+    if isinstance(goal, Not):
+        return not holds(goal.arg, facts)
+    if isinstance(goal, And):
+        return all(holds(p, facts) for p in goal.parts)
+    if isinstance(goal, Or):
+        return any(holds(p, facts) for p in goal.parts)
+    if isinstance(goal, Imply):
+        return not holds(goal.cond, facts) or holds(goal.then, facts)
+    raise ValueError(f"{goal}: a truth judge reads atoms, and, or, not and imply only")
+
+
+def _ground(text: str) -> Formula:
+    exprs = parse_all(text, "goal")
+    if len(exprs) != 1 or not isinstance(exprs[0], SList):
+        raise ValueError(f"not one formula: {text!r}")
+    return _read(exprs[0])
+
+
+def _read(e: SExpr) -> Formula:
+    if not isinstance(e, SList) or e.head() is None:
+        raise ValueError(f"{e}: expected a formula")
+    head, items = e.head(), e.items[1:]
+    if head == "and":
+        return And(tuple(_read(i) for i in items))
+    if head == "or":
+        return Or(tuple(_read(i) for i in items))
+    if head == "not" and len(items) == 1:
+        return Not(_read(items[0]))
+    if head == "imply" and len(items) == 2:
+        return Imply(_read(items[0]), _read(items[1]))
+    if head in ("not", "imply", "exists", "forall", "when"):
+        raise ValueError(f"{e}: a truth judge reads atoms, and, or, not and imply only")
+    if not all(isinstance(a, Sym) for a in items):
+        raise ValueError(f"{e}: an atom's arguments are names")
+    return Atom(str(head), tuple(str(a) for a in items))
+
+
+@runtime_checkable
 class World(Protocol):
     """A world plug-in: its scenarios and sessions on them."""
 
@@ -163,4 +231,4 @@ class World(Protocol):
         ...
 
 
-__all__ = ["RunOptions", "SearchModel", "Session", "World"]
+__all__ = ["RunOptions", "SearchModel", "Session", "TrueFacts", "World", "holds"]

@@ -154,9 +154,9 @@ def _oracle_run(task: SuiteTask, config: LoopConfig) -> OracleRun:
                 f"{task.category.value} expects a violated {want}, but the anomaly is {c}",
             )
         )
-    if not result.success or not holds_in_truth(task.success, world.truth):
-        why = result.message if not result.success else "the true final state does not satisfy it"
-        limit = planner_limit(result) if not result.success else None
+    if not result.believed or not holds_in_truth(task.success, world.truth):
+        why = result.message if not result.believed else "the true final state does not satisfy it"
+        limit = planner_limit(result) if not result.believed else None
         verdict = (
             "unreachable: the oracle's resolution fails"
             if limit is None
@@ -274,8 +274,8 @@ def effective_issues(
         elif {as_search(g, lost, places) for g in p.goals} != want:
             shown = " ".join(map(str, p.goals))
             issues.append(Issue(task.source, where, f"{text}: the loop changes it to {shown}"))
-        elif not result.success or not holds_in_truth(task.success, traced.world.truth):
-            why = result.message if not result.success else "the true final state disagrees"
+        elif not result.believed or not holds_in_truth(task.success, traced.world.truth):
+            why = result.message if not result.believed else "the true final state disagrees"
             notes.append(
                 Issue(task.source, where, f"{text}: planned, but the task is not resolved: {why}")
             )

@@ -155,7 +155,7 @@ def judge(
     first = first_anomaly(result)
     if first is None:
         verdict = Verdict.NO_ANOMALY
-    elif not result.success:
+    elif not result.believed:  # the loop's own verdict (``success`` is the truth's)
         verdict = Verdict.NOT_DONE
     elif not holds:
         verdict = Verdict.FALSE_DONE
@@ -180,7 +180,7 @@ def judge(
         task=task.name,
         category=task.category,
         verdict=verdict,
-        completed=result.success,
+        completed=bool(result.believed),
         resolution_length=resolution_length(result),
         anomaly=str(first[1].constraint) if first else "",
         rounds=len(result.rounds),

@@ -1,6 +1,12 @@
-"""LLM backends from a spec string: ``replay:DIR``, ``openai:MODEL[@BASE_URL]``,
-``llama-cpp[:PATH]``, and kinds a caller registers (``oracle``: a world's labelled oracle, which
-:mod:`llmpas.experiments` supplies, since it reads the world's truth).
+"""LLM backends from a spec string, built in one place (:func:`make_backend`).
+
+:data:`KINDS` is the registry of every ``--llm`` kind: its name (the spec before the colon), how
+it is written, one line of help and its maker. It is the single source of the choices the
+command line offers (:func:`choices`) and of the table in ``docs/llm-part.md``
+(:func:`markdown_table`). The registry is lazy: a maker imports its backend's module only when
+a spec of its kind is built. ``oracle`` (a labelled oracle, which reads the world's truth) and
+``replan`` (no LLM: the task restated) have no maker here: the experiments supply them
+(:mod:`llmpas.experiments.worlds`), since reasoning knows no world.
 
 ``record``: a cassette folder the answers are recorded into (replayed when present). Bad specs
 raise :class:`ValueError` naming the spec; nothing is loaded before the spec is known good.
@@ -10,13 +16,14 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any
 
 from llmpas.reasoning.llm import LLM
 
-SPECS = "oracle | replay:DIR | openai:MODEL[@BASE_URL] | llama-cpp[:PATH]"
 Maker = Callable[[str, str | None], Any]  # (argument after the colon, record folder) -> backend
 
 
@@ -73,20 +80,100 @@ def _recorded(inner: LLM, record: str | None) -> LLM:
     return ReplayBackend(Path(record), inner=inner, mode="auto")
 
 
-BACKENDS: Mapping[str, Maker] = {"replay": _replay, "openai": _openai, "llama-cpp": _llama_cpp}
+@dataclass(frozen=True)
+class BackendKind:
+    """One kind of ``--llm`` spec. ``maker``: builds it (None: the caller supplies the maker,
+    as the experiments do for ``oracle`` and ``replan``)."""
+
+    name: str
+    syntax: str
+    help: str
+    maker: Maker | None = None
+
+    def __post_init__(self) -> None:
+        if not self.name or ":" in self.name:
+            raise ValueError(f"a backend kind's name is a word without ':', got {self.name!r}")
+        if not self.syntax.startswith(self.name):
+            raise ValueError(f"{self.name}: its syntax must start with its name: {self.syntax!r}")
+
+
+KINDS: Mapping[str, BackendKind] = MappingProxyType(
+    {
+        k.name: k
+        for k in (
+            BackendKind(
+                "oracle",
+                "oracle",
+                "the labelled oracle: reads the truth (an upper bound, never a default)",
+            ),
+            BackendKind("replan", "replan", "no LLM: the task restated (the baseline)"),
+            BackendKind("replay", "replay:DIR", "answers recorded in a cassette folder", _replay),
+            BackendKind(
+                "openai",
+                "openai:MODEL[@BASE_URL]",
+                f"an OpenAI-compatible endpoint (key: OPENAI_API_KEY; {TIMEOUT_VARIABLE})",
+                _openai,
+            ),
+            BackendKind(
+                "llama-cpp",
+                "llama-cpp[:PATH]",
+                "a local GGUF model (default: the offline model)",
+                _llama_cpp,
+            ),
+        )
+    }
+)
+"""Every ``--llm`` kind, in the order the command line lists them."""
+
+BACKENDS: Mapping[str, Maker] = MappingProxyType(
+    {name: k.maker for name, k in KINDS.items() if k.maker is not None}
+)
+"""The kinds built here (the LLMs proper)."""
+
+
+def choices(names: Iterable[str] | None = None, shown: Mapping[str, str] = {}) -> str:
+    """``oracle | replay:DIR | ...``: the kinds ``names`` (default: all), as written, in the
+    registry's order (``shown``: another text for a kind, e.g. what the oracle is there)."""
+    wanted = set(KINDS) if names is None else set(names)
+    unknown = sorted(wanted - set(KINDS))
+    if unknown:
+        raise ValueError(f"unknown backend kind {unknown[0]!r}; kinds: {', '.join(KINDS)}")
+    return " | ".join(shown.get(n, k.syntax) for n, k in KINDS.items() if n in wanted)
+
+
+SPECS = choices(("oracle", *BACKENDS))
+"""What a spec may be where the oracle is offered (no replan)."""
+
+
+def markdown_table() -> str:
+    """The registry as the Markdown table of ``docs/llm-part.md``."""
+    lines = ["| `--llm` | what it is |", "|---|---|"]
+    lines += [f"| `{k.syntax}` | {k.help} |" for k in KINDS.values()]
+    return "\n".join(lines) + "\n"
 
 
 def make_backend(spec: str, record: str | None = None, extra: Mapping[str, Maker] = {}) -> Any:
-    """The backend for ``spec`` (``extra``: more kinds, e.g. ``oracle``). ValueError naming the
-    spec when it is not one of the known kinds or its argument is missing."""
+    """The backend for ``spec`` (``extra``: makers of the kinds the caller supplies, e.g.
+    ``oracle``). ValueError naming the spec when it is not one of the kinds buildable here or
+    its argument is missing."""
     kind, _, arg = spec.partition(":")
     makers = {**BACKENDS, **extra}
     if kind not in makers:
-        raise ValueError(f"{spec!r}: expected {SPECS}")
+        offered = [n for n in KINDS if n in makers or n == "oracle"]
+        raise ValueError(f"{spec!r}: expected {choices(offered)}")
     try:
         return makers[kind](arg, record)
     except ValueError as err:
         raise ValueError(f"{spec}: {err}") from None
 
 
-__all__ = ["BACKENDS", "SPECS", "Maker", "make_backend"]
+__all__ = [
+    "BACKENDS",
+    "KINDS",
+    "SPECS",
+    "BackendKind",
+    "Maker",
+    "choices",
+    "make_backend",
+    "markdown_table",
+]

@@ -19,12 +19,12 @@ from llmpas.execution.context import Belief, Context
 from llmpas.execution.csubbt import SubtreeSpec
 from llmpas.execution.executor import ExecutorConfig
 from llmpas.language.domain import Domain
-from llmpas.language.logic import Formula
+from llmpas.language.logic import Atom, Formula
 from llmpas.language.problem import Problem
 from llmpas.planning import PlannerConfig
 from llmpas.planning.result import Plan
 from llmpas.reasoning.tables import PromptTables, Vocabulary
-from llmpas.worlds.api import RunOptions
+from llmpas.worlds.api import RunOptions, holds
 from llmpas.worlds.household.decomposition import ExplorationConfig, build_specs
 from llmpas.worlds.household.layout import Layout
 from llmpas.worlds.household.problem import (
@@ -36,6 +36,7 @@ from llmpas.worlds.household.problem import (
 from llmpas.worlds.household.reasoning import environment, prompt_tables, vocabulary
 from llmpas.worlds.household.scenario import Scenario, load_scenario
 from llmpas.worlds.household.sim import HouseholdWorld
+from llmpas.worlds.household.state import true_facts
 from llmpas.worlds.household.values import Placement
 from llmpas.worlds.kitchen.session import PLANNER, KitchenSearch, KitchenSession
 
@@ -89,7 +90,7 @@ class HouseholdSession(KitchenSession):
 
     scenario: Scenario
     house: Household
-    sim: HouseholdWorld  # the simulator: only a labelled oracle may read its truth
+    sim: HouseholdWorld  # the simulator: only a labelled oracle and the truth judge read it
     seed: int
     context: Context
     planner: PlannerConfig
@@ -133,9 +134,13 @@ class HouseholdSession(KitchenSession):
     def environment(self) -> str:
         return environment(self.house, self.belief)
 
-    def achieved(self) -> bool | None:
-        """None: the household's verdict is the robot's belief (the suite judges the truth)."""
-        return None
+    def true_facts(self) -> frozenset[Atom]:
+        """The simulator's hidden true state, as facts (for the truth judge only)."""
+        return true_facts(self.sim.truth)
+
+    def achieved(self) -> bool:
+        """The task judged in the simulator's true state (a lookalike carried is not done)."""
+        return holds(self.task, self.true_facts())
 
     def save(self, folder: Path) -> list[Path]:
         return []

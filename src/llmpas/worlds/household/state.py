@@ -19,6 +19,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
+from llmpas.language.logic import Atom
 from llmpas.worlds.household.layout import Layout, ObjectSpec, Rect
 from llmpas.worlds.household.values import BaseConf, Placement
 
@@ -421,3 +422,16 @@ class TrueState:
             and not self.carried(o)
             and self.layout.blocked_by(region, p.x, p.y, self.radius(o))
         )
+
+
+def true_facts(state: TrueState | StateSnapshot) -> frozenset[Atom]:
+    """The true state as facts in the planning domain's words, for the truth judge
+    (:func:`llmpas.worlds.api.holds`): ``(on O R)`` for every object resting in region R (not
+    the held one), ``(holding O)``, ``(open R)`` for every open region and ``(S O)`` for every
+    state S of O (hidden ones too)."""
+    facts = {Atom("on", (o, p.region)) for o, p in state.placements.items() if o != state.held}
+    if state.held is not None:
+        facts.add(Atom("holding", (state.held,)))
+    facts |= {Atom("open", (r,)) for r, is_open in state.open.items() if is_open}
+    facts |= {Atom(s, (o,)) for o, states in state.properties.items() for s in states}
+    return frozenset(facts)

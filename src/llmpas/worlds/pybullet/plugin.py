@@ -23,7 +23,7 @@ from llmpas.language.logic import Atom, Formula
 from llmpas.language.problem import Problem
 from llmpas.planning.result import Plan
 from llmpas.reasoning.tables import PromptTables, Vocabulary
-from llmpas.worlds.api import RunOptions
+from llmpas.worlds.api import RunOptions, holds
 from llmpas.worlds.kitchen import load_domain
 from llmpas.worlds.kitchen.session import PLANNER, KitchenSearch, KitchenSession
 from llmpas.worlds.pybullet.camera import CameraConfig
@@ -33,11 +33,11 @@ from llmpas.worlds.pybullet.reasoning import environment, prompt_tables, vocabul
 from llmpas.worlds.pybullet.run import (
     PyBulletScenario,
     belief_for,
-    goal_holds,
     resolve,
     save_world,
     scenarios,
     setup_scene,
+    true_facts,
 )
 from llmpas.worlds.pybullet.scene import Scene, SceneConfig, open_client
 from llmpas.worlds.pybullet.streams import Geometry
@@ -120,9 +120,13 @@ class PyBulletSession(KitchenSession):
     def environment(self) -> str:
         return environment(self.scenario.scene, self.belief)
 
+    def true_facts(self) -> frozenset[Atom]:
+        """The simulator's true state, as facts (for the truth judge only)."""
+        return true_facts(self.scene)
+
     def achieved(self) -> bool:
         """The task judged in the simulator's true state."""
-        return goal_holds(self.scene, self.scenario.goal)
+        return holds(self.task, self.true_facts())
 
     def save(self, folder: Path) -> list[Path]:
         self.rounds = self.episodes

@@ -19,6 +19,8 @@ import numpy as np
 
 from llmpas.execution.context import Belief
 from llmpas.files import atomic_write
+from llmpas.language.logic import Atom
+from llmpas.worlds.api import holds
 from llmpas.worlds.pybullet.problem import initial_belief
 from llmpas.worlds.pybullet.scene import (
     TABLE_TOP,
@@ -181,17 +183,42 @@ def belief_for(scene: Scene, scenario: PyBulletScenario, rng: np.random.Generato
     return initial_belief(scene.config, poses, BaseConf(x, y, t))
 
 
+BOWL_RIM = 0.08  # m above a bowl's origin: an object higher rests on something in it
+
+
+def true_facts(scene: Scene) -> frozenset[Atom]:
+    """PyBullet's true state as facts, for the truth judge (:func:`llmpas.worlds.api.holds`):
+    ``(holding O)`` for the held object, ``(on O R)`` for an object at rest in region R (inside
+    a bowl's rim, below its top; else on the table under it)."""
+    facts: set[Atom] = set()
+    for o in scene.config.objects:
+        if scene.held == o.name:
+            facts.add(Atom("holding", (o.name,)))
+            continue
+        at, _ = scene.pose(o.name)
+        region = _resting_in(scene, o.name, at)
+        if region is not None:
+            facts.add(Atom("on", (o.name, region)))
+    return frozenset(facts)
+
+
+def _resting_in(scene: Scene, name: str, at: Any) -> str | None:
+    for bowl in scene.config.objects:
+        if bowl.kind != "bowl" or bowl.name == name:
+            continue
+        pos, _ = scene.pose(bowl.name)
+        inner = bowl.size / 2 - 0.01
+        if abs(at[0] - pos[0]) < inner and abs(at[1] - pos[1]) < inner:
+            return bowl.name if at[2] < pos[2] + BOWL_RIM else None
+    for table, rect in scene.tables.items():
+        if rect.contains(float(at[0]), float(at[1])):
+            return table
+    return None
+
+
 def goal_holds(scene: Scene, goal: str) -> bool:
-    """Judge the scenario goal ``(On cube bowl)`` in the true state (cube resting inside)."""
-    if "(on cube bowl)" not in goal.lower():
-        raise ValueError(f"cannot judge goal {goal!r}")
-    if scene.held == "cube":
-        return False
-    cube, _ = scene.pose("cube")
-    bowl, _ = scene.pose("bowl")
-    inner = scene.config.obj("bowl").size / 2 - 0.01
-    inside = abs(cube[0] - bowl[0]) < inner and abs(cube[1] - bowl[1]) < inner
-    return bool(inside and cube[2] < bowl[2] + 0.08)
+    """Judge a goal (``(On cube bowl)``: the cube resting inside) in the true state."""
+    return holds(goal, true_facts(scene))
 
 
 def resolve(scenario: PyBulletScenario | str) -> PyBulletScenario:

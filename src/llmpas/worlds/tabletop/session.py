@@ -26,7 +26,7 @@ from llmpas.language.problem import Problem
 from llmpas.planning import PlannerConfig
 from llmpas.planning.result import Plan
 from llmpas.reasoning.tables import PromptTables, Vocabulary
-from llmpas.worlds.api import RunOptions
+from llmpas.worlds.api import RunOptions, holds
 from llmpas.worlds.kitchen import load_domain
 from llmpas.worlds.kitchen.reasoning import whereabouts
 from llmpas.worlds.kitchen.session import KitchenSession
@@ -35,6 +35,7 @@ from llmpas.worlds.pybullet.motion import BaseChecker
 from llmpas.worlds.pybullet.plugin import table_search
 from llmpas.worlds.pybullet.problem import believed_pose, initial_belief, make_problem
 from llmpas.worlds.pybullet.reasoning import vocabulary as make_vocabulary
+from llmpas.worlds.pybullet.run import true_facts
 from llmpas.worlds.pybullet.scene import TABLE_TOP, Rect, Scene, open_client
 from llmpas.worlds.pybullet.snapshot import save_media
 from llmpas.worlds.pybullet.streams import Geometry
@@ -138,16 +139,13 @@ class TabletopSession(KitchenSession):
         lines.append(f"- tables: {', '.join(self.scene.tables)} (the arm stands fixed at it)")
         return "\n".join(lines)
 
+    def true_facts(self) -> frozenset[Atom]:
+        """PyBullet's true state, as facts (for the truth judge only)."""
+        return true_facts(self.scene)
+
     def achieved(self) -> bool:
         """Every ``(on O R)`` of the task holds in PyBullet's true state (O at rest in R)."""
-        for obj, region in self.scenario.task:
-            at, _ = self.scene.pose(obj)
-            if self.scene.held == obj or self.scene.region_of(*at) != region:
-                return False
-            bowl = region not in self.scene.tables
-            if bowl and at[2] > self.scene.pose(region)[0][2] + 0.08:
-                return False
-        return True
+        return holds(self.task, self.true_facts())
 
     def save(self, folder: Path) -> list[Path]:
         self.world.snapshot("end")

@@ -1,0 +1,76 @@
+"""The closed loop of LLM-PAS, once for every world: plan -> execute -> on an anomaly, reason ->
+validate -> replan from the believed state with the new goals (and the task goals when they can
+be planned together) -> resume, for a bounded number of rounds.
+
+A world supplies parts (:class:`llmpas.worlds.api.Session`): the problem for a goal from its
+belief, the decomposition of a plan into conditional subtrees, the robot and its perception, the
+prompt tables and a search model. This package is the only place that plans, executes and asks
+the LLM in a run; it imports no world. Its modules:
+
+- :mod:`~llmpas.system.loop`: round control, :func:`plan` and :func:`execute`,
+  :func:`close_loop` (its LLM: a factory of the session, :func:`fixed` for a plain backend);
+- :mod:`~llmpas.system.checks`: the :class:`GoalChecker` of the LLM's answers (reasoning's
+  ``Check``);
+- :mod:`~llmpas.system.search`: the :class:`SearchMemory` (what was searched, what is left);
+- :mod:`~llmpas.system.recovery`: recovery goals kept true and staged in the order written;
+- :mod:`~llmpas.system.records`: rounds, results (belief and truth side by side), the Markdown
+  report and the run folder;
+- :mod:`~llmpas.system.run`: the entry points :func:`run` and :func:`run_once`, which judge the
+  task in the world's truth.
+
+The belief carries over between rounds (what the robot saw while recovering is what lets it
+finish the task); the world's truth is read only by the truth judge (after the loop) and by a
+labelled oracle.
+"""
+
+from llmpas.system.checks import UNJUDGED, GoalChecker
+from llmpas.system.loop import (
+    LLMFactory,
+    LLMFor,
+    LoopSettings,
+    as_factory,
+    close_loop,
+    counted,
+    execute,
+    fixed,
+    plan,
+)
+from llmpas.system.records import (
+    LoopResult,
+    LoopStatus,
+    OnRound,
+    Round,
+    loop_markdown,
+    save_loop,
+    save_once,
+    save_records,
+)
+from llmpas.system.run import judged, run, run_once, truth
+from llmpas.system.search import SearchMemory
+
+__all__ = [
+    "UNJUDGED",
+    "GoalChecker",
+    "LLMFactory",
+    "LLMFor",
+    "LoopResult",
+    "LoopSettings",
+    "LoopStatus",
+    "OnRound",
+    "Round",
+    "SearchMemory",
+    "as_factory",
+    "close_loop",
+    "counted",
+    "execute",
+    "fixed",
+    "judged",
+    "loop_markdown",
+    "plan",
+    "run",
+    "run_once",
+    "save_loop",
+    "save_once",
+    "save_records",
+    "truth",
+]

@@ -1,0 +1,251 @@
+"""What a closed loop leaves behind: its rounds (:class:`Round`), its result (:class:`LoopResult`,
+with the robot's belief and the world's truth side by side), the readable report
+(:func:`loop_markdown`) and the run folder (:func:`save_loop`, :func:`save_once`,
+:func:`save_records`)."""
+
+from __future__ import annotations
+
+import html
+import json
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from enum import Enum
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from llmpas.execution.csubbt import SubtreeSpec
+from llmpas.execution.executor import Episode
+from llmpas.files import atomic_write
+from llmpas.planning import PlanResult
+from llmpas.reasoning.methods import Proposal
+from llmpas.safetext import fenced, printable
+
+if TYPE_CHECKING:
+    from llmpas.worlds.api import Session
+
+
+@dataclass(frozen=True)
+class Round:
+    """One plan-and-execute round, and the LLM's answer to its anomaly (if any)."""
+
+    goal: str
+    plan: PlanResult
+    episode: Episode | None
+    proposal: Proposal | None = None
+    specs: tuple[SubtreeSpec, ...] = field(default=(), compare=False, repr=False)
+
+    def to_json(self) -> dict[str, Any]:
+        ep = self.episode
+        out: dict[str, Any] = {
+            "goal": self.goal,
+            "plan": self.plan.to_json(),
+            "status": ep.status.value if ep else "no-plan",
+            "anomaly": ep.anomaly.to_json() if ep and ep.anomaly else None,
+            "episode": ep.to_json() if ep else None,
+        }
+        if self.proposal is not None:
+            out["reasoning"] = _proposal_json(self.proposal)
+        return out
+
+
+def _proposal_json(p: Proposal) -> dict[str, Any]:
+    return {
+        "method": p.method,
+        "status": p.parse.status.value,
+        "goals": [str(g) for g in p.goals],
+        "errors": list(p.parse.errors),
+        "notes": list(p.parse.notes),
+        "repairs": p.repairs,
+        "first_look": p.first_look,
+        "tokens": p.tokens,
+        "latency": p.latency,
+        "exchanges": [
+            {
+                "tag": e.tag,
+                "messages": [[m.role, m.content] for m in e.request.messages],
+                "response": e.response.text,
+                "model": e.response.model,
+                "prompt_tokens": e.response.prompt_tokens,
+                "completion_tokens": e.response.completion_tokens,
+                "latency": e.response.latency,
+            }
+            for e in p.exchanges
+        ],
+    }
+
+
+class LoopStatus(Enum):
+    """How a loop ended (``running``: a record written while it runs)."""
+
+    DONE = "done"
+    NOT_DONE = "not-done"
+    DEADLINE = "deadline"
+    LLM_ERROR = "llm-error"
+    CRASHED = "crashed"
+    INTERRUPTED = "interrupted"
+    RUNNING = "running"
+
+
+@dataclass(frozen=True)
+class LoopResult:
+    """``success``: the verdict, judged in the world's truth where the session has a true state
+    (or a judge), else the robot's belief. ``believed``: the loop's own verdict, in the robot's
+    belief (None: ``success``); ``truth``: the truth judge's (None: no true state, or not
+    judged). A robot that carried a lookalike has ``believed`` true and ``truth`` false."""
+
+    scenario: str
+    success: bool  # judged in the world's truth where it has a judge, else the robot's belief
+    rounds: tuple[Round, ...]
+    message: str = ""
+    timings: Mapping[str, float] = field(default_factory=dict)  # seconds, where a world counts
+    llm_time: float = 0.0  # seconds spent proposing goals (the LLM and the checks of its answers)
+    status: LoopStatus | None = None  # None: done or not-done, from ``success``
+    error: str = ""  # what stopped the loop when it did not end by itself
+    believed: bool | None = None  # the loop's verdict in the robot's belief (None: ``success``)
+    truth: bool | None = None  # the task judged in the world's true state (None: not judged)
+
+    def __post_init__(self) -> None:
+        if self.status is None:
+            done = LoopStatus.DONE if self.success else LoopStatus.NOT_DONE
+            object.__setattr__(self, "status", done)
+        if self.believed is None:
+            object.__setattr__(self, "believed", self.success)
+
+    @property
+    def llm_calls(self) -> int:
+        return sum(len(r.proposal.exchanges) for r in self.rounds if r.proposal)
+
+    @property
+    def verdicts(self) -> str:
+        """Belief and truth side by side: ``believed done, truly not done``, say."""
+        believed = "believed done" if self.believed else "believed not done"
+        if self.truth is None:
+            return f"{believed}, no truth judged"
+        return f"{believed}, {'truly done' if self.truth else 'truly not done'}"
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "scenario": self.scenario,
+            "success": self.success,
+            "believed": self.believed,
+            "truth": self.truth,
+            "message": self.message,
+            "status": self.status.value if self.status else None,
+            "error": self.error or None,
+            "llm_calls": self.llm_calls,
+            "llm_time": round(self.llm_time, 3),
+            "timings": {k: round(v, 3) for k, v in self.timings.items()},
+            "rounds": [r.to_json() for r in self.rounds],
+        }
+
+    def save(self, path: str | Path) -> Path:
+        return atomic_write(path, json.dumps(self.to_json(), indent=2))
+
+
+OnRound = Callable[[LoopResult], object]  # gets the record so far after every step
+
+
+def loop_markdown(result: LoopResult) -> str:
+    """The closed loop as a readable report: the verdict (belief and truth side by side), each
+    round's goal and outcome, and for each anomaly the prompts sent, the answers, the goals
+    taken and the repairs."""
+    verdict = "task done" if result.success else "not done"
+    if result.status not in (LoopStatus.DONE, LoopStatus.NOT_DONE, None):
+        verdict += f" ({result.status.value})"
+    title = f"# Closed loop: {_md(result.scenario)}"
+    lines = [title, "", f"**{verdict}**: {_md(result.message)}", ""]
+    if result.truth is not None:
+        lines += [f"Belief and truth: {result.verdicts}", ""]
+    for i, rnd in enumerate(result.rounds):
+        ep = rnd.episode
+        status = ep.status.value if ep else f"no plan ({rnd.plan.status.value})"
+        lines += [f"## Round {i}: `{rnd.goal}` -> {status}", ""]
+        if rnd.plan.plan is not None:
+            lines += [
+                f"Plan ({len(rnd.plan.plan.steps)} actions, {rnd.plan.stats.total_time:.2f} s):",
+                "",
+            ]
+            lines += [f"{k}. `{s}`" for k, s in enumerate(rnd.plan.plan.steps, 1)] + [""]
+        if ep is not None and ep.anomaly is not None:
+            lines += ["Anomaly:", "", f"> {_md(ep.anomaly.describe())}", ""]
+        if rnd.proposal is not None:
+            lines += _proposal_lines(rnd.proposal)
+    return printable("\n".join(lines) + "\n")
+
+
+def _md(text: str) -> str:
+    """Text from outside (an answer, a file name) on a Markdown line: one printable line, with
+    no raw HTML."""
+    return html.escape(printable(text, keep_newlines=False), quote=False)
+
+
+def _proposal_lines(p: Proposal) -> list[str]:
+    goals = " ".join(map(str, p.goals)) or f"none ({p.parse.status.value})"
+    lines = [
+        f"### Reasoning ({p.method}): {goals}",
+        "",
+        f"{p.repairs} repairs, {p.tokens} tokens, {p.latency:.1f} s",
+        "",
+    ]
+    notes = [f"- {_md(e)}" for e in (*p.parse.errors, *p.parse.notes)]
+    lines += [*notes, ""] if notes else []
+    for e in p.exchanges:
+        lines += [
+            f"#### {_md(e.tag)}: prompt",
+            "",
+            *fenced(e.request.messages[-1].content.strip()),
+            "",
+            f"#### {_md(e.tag)}: answer ({_md(e.response.model)})",
+            "",
+            *fenced(e.response.text.strip()),
+            "",
+        ]
+    return lines
+
+
+def save_loop(result: LoopResult, folder: str | Path, session: Session | None = None) -> list[Path]:
+    """The run folder: the world's own files (snapshots, a GIF, its log), per executed round
+    ``round-I/`` with the episode report and the subtrees' XML, ``loop.json`` and ``loop.md``."""
+    from llmpas.execution.report import save_episode
+
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    files = session.save(out) if session is not None else []
+    for i, rnd in enumerate(result.rounds):
+        if rnd.episode is not None:
+            title = f"{result.scenario}, round {i}: {rnd.goal}"
+            files += save_episode(rnd.episode, out / f"round-{i}", list(rnd.specs), title)
+    return files + save_records(result, out)
+
+
+def save_once(result: LoopResult, folder: str | Path, session: Session | None = None) -> list[Path]:
+    """The folder of a run without reasoning: the world's own files and the one round's
+    episode reports and subtrees at the top."""
+    from llmpas.execution.report import save_episode
+
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    files = session.save(out) if session is not None else []
+    rnd = result.rounds[0] if result.rounds else None
+    if rnd is not None and rnd.episode is not None:
+        files += save_episode(rnd.episode, out, list(rnd.specs), f"{result.scenario}: {rnd.goal}")
+    return files
+
+
+def save_records(result: LoopResult, folder: str | Path) -> list[Path]:
+    """``loop.json`` and ``loop.md`` (atomically): written after every step while the loop
+    runs, so a crash or an interrupt keeps what happened."""
+    out = Path(folder)
+    return [result.save(out / "loop.json"), atomic_write(out / "loop.md", loop_markdown(result))]
+
+
+__all__ = [
+    "LoopResult",
+    "LoopStatus",
+    "OnRound",
+    "Round",
+    "loop_markdown",
+    "save_loop",
+    "save_once",
+    "save_records",
+]
