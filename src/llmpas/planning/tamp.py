@@ -762,6 +762,7 @@ def _one_level(run: Run) -> bool:
     or may still produce (a sampler that yielded only ``None`` this time)."""
     store = run.store
     state = State(store.facts)
+    known = len(store.facts)
     produced = False
     for b in run.problem.bound_streams.values():
         if run.deferred(b):
@@ -772,7 +773,7 @@ def _one_level(run: Run) -> bool:
                 produced = True
             if store.out_of_time():
                 return True
-    return produced
+    return produced or len(store.facts) > known  # reported facts (WildOutput) are progress
 
 
 # ----------------------------------------------------------------------------------- search
@@ -1038,6 +1039,7 @@ def _final_plan(
         deferred=deferred,
         deferred_facts=facts,
         fluent_facts={a: frozenset(run.store.fluent_facts[a]) for a in in_context},
+        reported=frozenset(run.store.wild - run.problem.init),
     )
 
 
