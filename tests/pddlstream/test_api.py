@@ -142,7 +142,6 @@ def test_options_map_to_llmpas_info() -> None:
         ({"algorithm": "anytime-magic"}, None, "algorithm 'anytime-magic' does not exist"),
         ({"constraints": PlanConstraints(skeletons=[[]])}, None, "skeletons"),
         ({}, problem([("Obj", "x")], Minimize(("Total",))), "'minimize'"),
-        ({}, problem([("Obj", "x")], ("Done", "x"), "debug"), "debug streams"),
         (
             {},
             PDDLProblem(

@@ -11,6 +11,7 @@ a list of them, a generator of them, a bool). :meth:`Procedure.implementation` g
 from __future__ import annotations
 
 import enum
+import itertools
 import logging
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
@@ -198,6 +199,50 @@ class _Constant:
 
     def __call__(self, *_: Any) -> Any:
         return self.value
+
+
+@dataclass(frozen=True, eq=False)
+class DebugValue:
+    """An output of PDDLStream's ``debug`` streams: a new object per call (``index`` counts
+    them), equal only to itself, as there."""
+
+    stream: str
+    input_values: tuple[Any, ...]
+    output_parameter: str
+    index: int
+
+    def __repr__(self) -> str:
+        return f"@{self.output_parameter.lstrip('?')}{self.index}"
+
+
+class SharedDebugValue(NamedTuple):
+    """An output of PDDLStream's ``shared_debug`` streams: one per stream and output."""
+
+    stream: str
+    output_parameter: str
+
+    def __repr__(self) -> str:
+        return f"&{self.output_parameter.lstrip('?')}"
+
+
+@dataclass(frozen=True)
+class _Debug:
+    """A stream of PDDLStream's debug ``stream_map``: one call, one output tuple of debug values
+    (a test passes)."""
+
+    stream: str
+    outputs: tuple[str, ...]
+    shared: bool
+    counter: Iterator[int] = field(default_factory=itertools.count, compare=False)
+
+    def __call__(self, *inputs: Any, **_: Any) -> tuple[Any, ...]:  # _: fluents
+        if self.shared:
+            return tuple(SharedDebugValue(self.stream, o) for o in self.outputs)
+        return tuple(DebugValue(self.stream, inputs, o, next(self.counter)) for o in self.outputs)
+
+
+def debug_stream(stream: str, outputs: tuple[str, ...], shared: bool) -> Procedure:
+    return from_fn(_Debug(stream, outputs, shared))
 
 
 def fn_from_constant(value: Any) -> Callable[..., Any]:
