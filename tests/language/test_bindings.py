@@ -280,3 +280,27 @@ def test_cost_function_returning_nan():
 @pytest.mark.parametrize("value", [np.float32(1.5), np.int64(2)])
 def test_cost_function_returning_a_numpy_scalar(value):
     assert bound_fn(lambda x, y: value).value((0, 0)) == float(value)
+
+
+@pytest.mark.parametrize(
+    ("impl", "expected"),
+    [
+        (bindings.function(lambda x, y: ()), [()]),
+        (bindings.function(lambda x, y: None), []),
+        (bindings.sampler(lambda x, y: iter([None, ()])), [()]),
+        (bindings.sampler(lambda x, y: iter([])), []),
+    ],
+)
+def test_a_test_given_as_a_function_or_a_sampler_answers_with_outputs(impl, expected):
+    """As PDDLStream's ``from_fn``/``from_list_fn`` on a stream without outputs."""
+    assert list(bound("check", impl).outputs((1, 2))) == expected
+
+
+def test_reported_facts_are_items_not_outputs():
+    facts = bindings.Facts([("near", 1, 2)])
+    check = bound("check", bindings.sampler(lambda x, y: iter([facts])))
+    assert list(check.items((1, 2))) == [facts]
+    assert list(check.outputs((1, 2))) == []
+    one = bound("one", bindings.sampler(lambda x: iter([facts, (3,)])))
+    assert list(one.items((1,))) == [facts, (3,)]
+    assert list(one.outputs((1,))) == [(3,)]

@@ -350,16 +350,13 @@ def test_inconsistent_arity_of_an_undeclared_predicate():
 @pytest.mark.parametrize(
     ("body", "needle"),
     [
-        ("(:action a :parameters (?x) :precondition (q ?x ?y) :effect (p ?x))", "?y"),
         ("(:action a :parameters (?x)\n :effect (and (p ?x) (not (p ?z))))", "?z"),
         ("(:action a :parameters (?x) :effect (increase (total-cost) (f ?x ?w)))", "(f ?x ?w)"),
-        ("(:derived (d ?x) (and (p ?x) (q ?x ?y)))", "?y"),
-        ("(:action a :precondition (exists (?y) (q ?y ?x)) :effect (r))", "?x"),
         ("(:action a :parameters (?x) :effect (forall (?y) (q ?y ?v)))", "?v"),
-        ("(:action a :parameters (?x) :effect (when (p ?u) (p ?x)))", "?u"),
+        ("(:action a :parameters (?x) :effect (when (p ?x) (p ?u)))", "?u"),
     ],
 )
-def test_unbound_variable(body, needle):
+def test_unbound_variable_in_an_effect_or_a_cost_is_refused(body, needle):
     text = domain_with(body)
     err = syntax_error(text)
     assert (err.line, err.col) == where(text, needle, after=body)
@@ -367,13 +364,60 @@ def test_unbound_variable(body, needle):
     assert err.message.endswith("' is not bound here")
 
 
+@pytest.mark.parametrize(
+    ("body", "needle", "read"),
+    [
+        (
+            "(:action a :parameters (?x) :precondition (q ?x ?y) :effect (p ?x))",
+            "?y",
+            lambda d: d.actions[0].precondition,
+        ),
+        (
+            "(:derived (d ?x) (and (p ?x) (q ?x ?y)))",
+            "?y",
+            lambda d: d.derived[0].body.parts[1],
+        ),
+        (
+            "(:action a :precondition (exists (?y) (q ?y ?x)) :effect (r))",
+            "?x",
+            lambda d: d.actions[0].precondition.body,
+        ),
+        (
+            "(:action a :parameters (?x) :effect (when (p ?u) (p ?x)))",
+            "?u",
+            lambda d: d.actions[0].effects[0].cond,
+        ),
+        (
+            "(:action a :parameters (?x) :precondition (not (= ?x ?u)) :effect (r))",
+            "?u",
+            lambda d: d.actions[0].precondition.arg,
+        ),
+    ],
+)
+def test_unbound_variable_in_a_condition_names_no_object(body, needle, read, caplog):
+    """As the Fast Downward translator PDDLStream ships (its ffrob example has one): the atom
+    is false, so its negation holds; said once, where it is."""
+    text = domain_with(body)
+    domain = parse_domain(text, "d.pddl")
+    assert read(domain) == Or(())
+    line, col = where(text, needle, after=body)
+    (warning,) = [r.getMessage() for r in caplog.records]
+    assert warning.startswith(f"d.pddl:{line}:{col}: variable '{needle}' is not bound here")
+    assert "is false" in warning
+
+
 def test_quantified_variables_are_bound_only_inside():
     body = (
         "(:action a :parameters (?x)"
         " :precondition (and (exists (?y) (q ?x ?y)) (p ?y)) :effect (r))"
     )
-    err = syntax_error(domain_with(body))
-    assert err.message == "variable '?y' is not bound here"
+    pre = parse_domain(domain_with(body), "d.pddl").actions[0].precondition
+    assert pre.parts == (Exists((Param("?y"),), Atom("q", ("?x", "?y"))), Or(()))
+
+
+def test_unbound_variable_in_a_condition_still_checks_arity():
+    err = syntax_error(domain_with("(:derived (d ?x) (and (p ?x) (q ?y)))"))
+    assert err.message == "predicate 'q' takes 2 arguments, given 1"
 
 
 def test_unknown_domain_section():

@@ -142,7 +142,6 @@ def test_options_map_to_llmpas_info() -> None:
         ({"algorithm": "anytime-magic"}, None, "algorithm 'anytime-magic' does not exist"),
         ({"constraints": PlanConstraints(skeletons=[[]])}, None, "skeletons"),
         ({}, problem([("Obj", "x")], Minimize(("Total",))), "'minimize'"),
-        ({}, problem([("Obj", "x")], ("Done", "x"), "debug"), "debug streams"),
         (
             {},
             PDDLProblem(
@@ -212,15 +211,15 @@ def test_fluents_reach_the_stream_as_value_tuples() -> None:
     assert seen and all(f[0] == "obj" and f[1] is pos for f in seen)
 
 
-def test_wild_outputs_are_refused_in_one_line() -> None:
-    from llmpas.errors import PlannerError
+def test_wild_outputs_of_a_list_fn_are_taken() -> None:
+    """Its values are outputs (its facts: tests/pddlstream/test_wild.py)."""
     from llmpas.pddlstream.wrappers import WildOutput
 
     pds = problem(
         [("Obj", "x")], ("Done", "x"), {"make": from_list_fn(lambda o: WildOutput(values=[(o,)]))}
     )
-    with pytest.raises(PlannerError, match=r"WildOutput .* is not supported"):
-        solve(pds, max_time=30)
+    plan, _, _ = solve(pds, max_time=30)
+    assert plan == [("finish", ("x", "x"))]
 
 
 def test_init_values_of_undeclared_functions_are_ignored_once(caplog) -> None:

@@ -98,3 +98,66 @@ def test_refusals_and_failures_are_one_line(tmp_path, capsys) -> None:
         assert main(["pddlstream", str(script)]) == code
         err = capsys.readouterr().err.strip()
         assert words in err and len(err.splitlines()) == 1 and "Traceback" not in err
+
+
+def test_a_script_on_debug_streams_that_sets_pddlstreams_switches(tmp_path, capsys) -> None:
+    """The shape of PDDLStream's kitchen example: it sets switches of PDDLStream's own
+    implementation, reads its files with ``read_pddlstream_pair`` and plans with debug
+    streams (every stream's outputs are placeholders; tests pass; costs are 0)."""
+    write(
+        tmp_path / "domain.pddl",
+        """
+        (define (domain cups)
+          (:requirements :strips)
+          (:predicates (Cup ?c) (Pose ?c ?p) (At ?c ?p) (Free ?c ?p) (Moved ?c))
+          (:functions (Effort ?c))
+          (:action move :parameters (?c ?p1 ?p2)
+            :precondition (and (Pose ?c ?p2) (At ?c ?p1) (Free ?c ?p2))
+            :effect (and (At ?c ?p2) (not (At ?c ?p1)) (Moved ?c)
+                         (increase (total-cost) (Effort ?c)))))
+        """,
+    )
+    write(
+        tmp_path / "stream.pddl",
+        """
+        (define (stream cups)
+          (:stream sample-pose :inputs (?c) :domain (Cup ?c) :outputs (?p)
+            :certified (Pose ?c ?p))
+          (:stream test-free :inputs (?c ?p) :domain (Pose ?c ?p) :certified (Free ?c ?p))
+          (:function (Effort ?c) (Cup ?c)))
+        """,
+    )
+    mode = "SHARED_DEBUG"
+    script = write(
+        tmp_path / "run.py",
+        f"""
+        from pddlstream.algorithms import instantiate_task
+        instantiate_task.FD_INSTANTIATE = True
+        from pddlstream.algorithms import instantiation
+        instantiation.USE_RELATION = True
+        from pddlstream.algorithms import refinement
+        refinement.CONSTRAIN_PLANS = False
+        from pddlstream.algorithms.meta import solve
+        from pddlstream.language.constants import And, PDDLProblem, read_pddlstream_pair
+        from pddlstream.language.stream import DEBUG, SHARED_DEBUG
+
+        domain_pddl, stream_pddl = read_pddlstream_pair(__file__)
+        init = [('Cup', 'c1'), ('Cup', 'c2'), ('At', 'c1', 1), ('At', 'c2', 2)]
+        goal = And(('Moved', 'c1'), ('Moved', 'c2'))
+        problem = PDDLProblem(domain_pddl, {{}}, stream_pddl, {mode}, init, goal)
+        plan, cost, _ = solve(problem, max_time=60)
+        assert [a.name for a in plan] == ['move', 'move'] and cost == 0, (plan, cost)
+        print('values', sorted(repr(a.args[2]) for a in plan))
+        """,
+    )
+    summary = tmp_path / "s.json"
+    assert main(["pddlstream", "--summary", str(summary), str(script)]) == 0
+    out = capsys.readouterr().out
+    (solve,) = json.loads(summary.read_text())["solves"]
+    assert solve["valid"], solve
+    assert "values ['&p', '&p']" in out  # shared: one value per stream and output
+    script.write_text(script.read_text().replace(mode, "DEBUG"))
+    assert main(["pddlstream", "--summary", str(summary), str(script)]) == 0
+    (solve,) = json.loads(summary.read_text())["solves"]
+    assert solve["valid"], solve
+    assert "values ['@p0', '@p1']" in capsys.readouterr().out  # a new value per call

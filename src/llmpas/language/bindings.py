@@ -81,6 +81,19 @@ class StreamInfo:
 
 
 @dataclass(frozen=True)
+class Facts:
+    """Facts a stream call reports beyond what its ``:certified`` says (PDDLStream's
+    ``WildOutput(facts=...)``): tuples ``(predicate, value, ...)``. A sampler (or a test given as
+    a generator) may yield one among its output tuples; the planner takes the facts as true from
+    then on, as it takes certified facts (see :meth:`BoundStream.items`)."""
+
+    facts: tuple[tuple[Any, ...], ...]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "facts", tuple(tuple(f) for f in self.facts))
+
+
+@dataclass(frozen=True)
 class Implementation:
     fn: Callable[..., Any]
     kind: Kind = Kind.AUTO
@@ -136,19 +149,46 @@ class BoundStream:
     ) -> Iterator[tuple[Any, ...] | None]:
         """Like :meth:`outputs`, but a sampler's ``None`` ("nothing this time") is passed on, so
         that a caller can check its deadline between values."""
+        return (x for x in self.items(inputs, fluents) if not isinstance(x, Facts))
+
+    def items(
+        self, inputs: tuple[Any, ...], fluents: Iterable[Any] = ()
+    ) -> Iterator[tuple[Any, ...] | Facts | None]:
+        """Like :meth:`samples`, with the :class:`Facts` the implementation reports passed on.
+
+        A test answers with a bool; implemented as a function or a sampler (as PDDLStream's
+        test streams may be), also with an empty output tuple (passed), or an iterable of them,
+        None and :class:`Facts` (the first output tuple: passed; the end: failed)."""
         kwargs = {"fluents": list(fluents)} if self.schema.fluents else {}
         result = self.impl.fn(*inputs, **kwargs)
         if self.schema.is_test:
-            if not isinstance(result, bool | np.bool_ | int) and result is not None:
-                raise BindingError(
-                    f"test stream {self.schema.name!r} returned {type(result).__name__}, not bool"
-                )
-            if result:
-                yield ()
+            yield from self._verdict(result)
             return
         yield from self._normalise(result)
 
-    def _normalise(self, result: Any) -> Iterator[tuple[Any, ...] | None]:
+    def _verdict(self, result: Any) -> Iterator[tuple[()] | Facts | None]:
+        if result is None or isinstance(result, bool | np.bool_ | int):
+            if result:
+                yield ()
+            return
+        if self.impl.kind not in (Kind.SAMPLER, Kind.FUNCTION):
+            raise BindingError(
+                f"test stream {self.schema.name!r} returned {type(result).__name__}, not bool"
+            )
+        # implemented as a function or a sampler (PDDLStream's from_fn, from_list_fn, ...)
+        items = (result,) if isinstance(result, tuple | Facts) else result
+        if isinstance(items, str | bytes) or not isinstance(items, Iterable):
+            raise BindingError(
+                f"test stream {self.schema.name!r} returned {type(result).__name__}, not bool"
+            )
+        for item in items:
+            if item is None or isinstance(item, Facts):
+                yield item
+                continue
+            yield self._check(item)
+            return
+
+    def _normalise(self, result: Any) -> Iterator[tuple[Any, ...] | Facts | None]:
         kind = self.impl.kind
         if result is None:
             return
@@ -161,8 +201,8 @@ class BoundStream:
                 "of outputs, None, or an iterable of tuples"
             )
         for item in result:
-            # a sampler may yield None for "no output this time"
-            yield None if item is None else self._check(item)
+            # a sampler may yield None for "no output this time", and Facts
+            yield item if item is None or isinstance(item, Facts) else self._check(item)
 
     def _check(self, item: Any) -> tuple[Any, ...]:
         n = len(self.schema.outputs)
@@ -259,6 +299,8 @@ def bind(
             streams[s.name] = BoundStream(s, Implementation(_always, Kind.TEST, RULE_INFO))
             continue
         impl = _as_impl(impls[s.name], s.name)
+        if s.is_test and not isinstance(impls[s.name], Implementation):
+            impl = Implementation(impl.fn, Kind.AUTO, impl.info)  # a bare callable: a bool
         if s.is_predicate:
             impl = Implementation(_Complement(impl.fn, s.name), Kind.TEST, impl.info)
         if impl.kind is Kind.COST:

@@ -18,6 +18,7 @@ from typing import Any
 from llmpas.inputs import PDDL_LIMIT, read_text
 from llmpas.language.errors import ModelError
 from llmpas.language.logic import (
+    FALSE,
     TRUE,
     And,
     Atom,
@@ -423,7 +424,7 @@ class _DomainReader:
                     f"{declared.arity}"
                 )
         self.derived_names = {sig.name for sig, _, _ in self.derived}
-        fr = _FormulaReader(self)
+        fr = _FormulaReader(self, lax_free_variables=True)
         derived = tuple(
             Derived(sig, fr.formula(body, {p.name for p in sig.params}))
             for sig, body, _ in self.derived
@@ -500,10 +501,14 @@ def _signature(s: SList, types: Collection[str] | None = None) -> Signature:
 
 
 class _FormulaReader:
-    """Turns s-expressions into formulas, checking predicate arity and variable scope."""
+    """Turns s-expressions into formulas, checking predicate arity and variable scope.
 
-    def __init__(self, reader: _DomainReader) -> None:
+    ``lax_free_variables``: an atom of a condition with a variable bound nowhere is read as
+    false, with a warning (domains), instead of refused (goals of problems)."""
+
+    def __init__(self, reader: _DomainReader, lax_free_variables: bool = False) -> None:
         self.r = reader
+        self.lax_free_variables = lax_free_variables
 
     def atom(self, s: SList, scope: set[str]) -> Atom:
         pred = expect_sym(s[0], "a predicate name").text
@@ -551,6 +556,22 @@ class _FormulaReader:
             ps = parse_typed_list(expect_list(args[0], "variables"), head, self.r.declared_types)
             body = self.formula(args[1], scope | {p.name for p in ps})
             return Exists(ps, body) if head == "exists" else Forall(ps, body)
+        free = _free_variable(s, scope) if self.lax_free_variables else None
+        if free is not None:
+            # Lax, as the Fast Downward translator PDDLStream ships: a variable bound nowhere
+            # names no object, so an atom over it holds in no state (and its negation in all).
+            # Today's Fast Downward refuses it; the effects and costs here still do.
+            log.warning(
+                "%s:%d:%d: variable '%s' is not bound here: read as naming no object, so %s "
+                "is false (as PDDLStream's Fast Downward reads it)",
+                free.pos.filename,
+                free.pos.line,
+                free.pos.col,
+                free.text,
+                _sexpr_text(s),
+            )
+            self._check_arity(expect_sym(s[0], "a predicate name").text, len(s) - 1, s.pos)
+            return FALSE
         return self.atom(s, scope)
 
     def effects(self, e: SExpr, scope: set[str]) -> tuple[EffectItem, ...]:
@@ -627,6 +648,18 @@ class _FormulaReader:
                 name, tuple(Param(f"?x{i}") for i in range(len(args)))
             )
         return FuncTerm(name, args)
+
+
+def _free_variable(s: SList, scope: set[str]) -> Sym | None:
+    """The first argument of atom ``s`` that is a variable outside ``scope``."""
+    for a in s.items[1:]:
+        if isinstance(a, Sym) and a.text.startswith("?") and a.text not in scope:
+            return a
+    return None
+
+
+def _sexpr_text(s: SExpr) -> str:
+    return s.text if isinstance(s, Sym) else "(" + " ".join(_sexpr_text(i) for i in s.items) + ")"
 
 
 def reader_for_formulas(domain: Domain) -> _FormulaReader:

@@ -125,6 +125,7 @@ class Forall:
 
 Formula = Atom | Not | And | Or | Imply | Exists | Forall
 TRUE: Formula = And(())
+FALSE: Formula = Or(())
 
 
 @dataclass(frozen=True)

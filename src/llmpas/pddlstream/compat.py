@@ -64,13 +64,6 @@ class UniqueOptValue(NamedTuple):
     output: Any
 
 
-class DebugValue(NamedTuple):
-    stream: Any
-    input_values: Any
-    output_parameter: Any
-    index: Any
-
-
 def get_cost_scale() -> float:
     return 1.0
 
@@ -106,7 +99,20 @@ _TABLE: Mapping[str, tuple[tuple[types.ModuleType, ...], Mapping[str, Any]]] = {
         {"get_cost_scale": get_cost_scale, "set_cost_scale": set_cost_scale, "MAX_FD_COST": 1e8},
     ),
     "pddlstream.algorithms.visualization": ((), {"VISUALIZATIONS_DIR": "visualizations/"}),
-    "pddlstream.language.constants": ((expressions,), {}),
+    # switches between parts of PDDLStream's own implementation (kitchen/run.py sets them):
+    # their values as PDDLStream has them; setting them changes nothing here
+    "pddlstream.algorithms.instantiate_task": ((), {"FD_INSTANTIATE": True}),
+    "pddlstream.algorithms.instantiation": ((), {"USE_RELATION": True}),
+    "pddlstream.algorithms.refinement": ((), {"CONSTRAIN_PLANS": False}),
+    "pddlstream.language.constants": (
+        (expressions,),
+        {
+            "read_relative": utils.read_relative,
+            "read_relative_dir": utils.read_relative_dir,
+            "read_pddl_pair": utils.read_pddl_pair,
+            "read_pddlstream_pair": utils.read_pddlstream_pair,
+        },
+    ),
     "pddlstream.language.generator": ((wrappers,), {}),
     "pddlstream.language.stream": ((wrappers,), {}),
     "pddlstream.language.function": ((wrappers,), {}),
@@ -116,7 +122,8 @@ _TABLE: Mapping[str, tuple[tuple[types.ModuleType, ...], Mapping[str, Any]]] = {
         {
             "SharedOptValue": SharedOptValue,
             "UniqueOptValue": UniqueOptValue,
-            "DebugValue": DebugValue,
+            "DebugValue": wrappers.DebugValue,
+            "SharedDebugValue": wrappers.SharedDebugValue,
         },
     ),
     "pddlstream.language.optimizer": ((), {"OptimizerOutput": OptimizerOutput}),

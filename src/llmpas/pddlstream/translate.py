@@ -43,7 +43,7 @@ from llmpas.language.logic import (
 from llmpas.language.problem import TOTAL_COST, Problem, missing_function_value, value_key
 from llmpas.language.streams import EMPTY_STREAMS, StreamSpec, parse_streams
 from llmpas.pddlstream.expressions import DEBUG_MAPS, PDDLProblem, is_parameter
-from llmpas.pddlstream.wrappers import ExternalInfo, Notes, Procedure, Shape
+from llmpas.pddlstream.wrappers import ExternalInfo, Notes, Procedure, Shape, debug_stream
 
 MAX_OUTPUTS = 100  # outputs one stream instance may give while planning (llmpas: 10)
 
@@ -294,10 +294,7 @@ def _implementations(
     spec: StreamSpec, stream_map: Any, stream_info: Mapping[str, Any], notes: Notes
 ) -> dict[str, Implementation]:
     if isinstance(stream_map, str) and stream_map.lower() in DEBUG_MAPS:
-        raise Unsupported(
-            f"stream_map {stream_map!r} (PDDLStream's debug streams) is not supported: give an "
-            "implementation of each stream"
-        )
+        stream_map = _debug_map(spec, shared=stream_map.lower() == "shared_debug")
     if stream_map is None:
         stream_map = {}
     if not isinstance(stream_map, Mapping):
@@ -331,6 +328,27 @@ def _implementations(
             raise BindingError(f"stream_map[{f.name!r}] is {type(obj).__name__}, not callable")
         out[f.name] = _with_info(impl, infos.get(f.name), notes, f.name)
     return out
+
+
+def _debug_map(spec: StreamSpec, shared: bool) -> dict[str, Any]:
+    """PDDLStream's debug streams: each stream gives one output tuple of debug values (shared:
+    one value per stream and output; else a new one per call), each test passes, each
+    ``:function`` costs 0 and each external ``:predicate`` is false (its ``bool()``)."""
+    out: dict[str, Any] = {}
+    for s in spec.streams:
+        if s.is_rule:
+            continue
+        out[s.name] = _never if s.is_predicate else debug_stream(s.name, s.outputs, shared)
+    out.update({f.name: _free for f in spec.functions})
+    return out
+
+
+def _never(*_: Any) -> bool:
+    return False
+
+
+def _free(*_: Any) -> float:
+    return 0.0
 
 
 def _stream_impl(name: str, obj: Any, predicate: bool) -> Implementation:

@@ -48,6 +48,27 @@ def get_file_path(file: str, rel_path: str) -> str:
     return os.path.join(os.path.dirname(os.path.abspath(file)), rel_path)
 
 
+def read_relative(file: str, relative_path: str) -> str:
+    """The text of ``relative_path`` from the folder of ``file`` (a script's ``__file__``)."""
+    return read(get_file_path(file, relative_path))
+
+
+def read_relative_dir(
+    file: str, relative_dir: str = "./", filenames: Sequence[str] = ()
+) -> list[str]:
+    return [read_relative(file, os.path.join(relative_dir, name)) for name in filenames]
+
+
+def read_pddl_pair(file: str, **kwargs: Any) -> list[str]:
+    """``domain.pddl`` and ``problem.pddl`` next to ``file``."""
+    return read_relative_dir(file, filenames=("domain.pddl", "problem.pddl"), **kwargs)
+
+
+def read_pddlstream_pair(file: str, **kwargs: Any) -> list[str]:
+    """``domain.pddl`` and ``stream.pddl`` next to ``file``."""
+    return read_relative_dir(file, filenames=("domain.pddl", "stream.pddl"), **kwargs)
+
+
 def write(filename: str, text: str) -> None:
     Path(filename).write_text(text, encoding="utf-8")
 

@@ -2,7 +2,8 @@
 the planner's bookkeeping.
 
 The plan is replayed from the init and the facts its samplers certified (the streams'
-contract: an output satisfies what the stream certifies). Everything else a plan may rely on is
+contract: an output satisfies what the stream certifies), and those streams reported beyond it
+(PDDLStream's ``WildOutput`` facts, taken on the same word). Everything else a plan may rely on is
 recomputed here by calling the user's implementations again on the values: tests (``:stream``
 without outputs) and external ``:predicate`` s on every instance of their domain among those
 facts, rules likewise; costs by calling the ``:function`` s on the values each step uses. The
@@ -53,7 +54,7 @@ def validate(attempt: Attempt) -> Validation:
     problem = attempt.translation.problem
     values = {**problem.objects, **{k: v for k, v in plan.objects.items() if v is not None}}
     fluent = _fluent_streams(problem)
-    facts = set(problem.init) | _sampled(problem, plan, fluent)
+    facts = set(problem.init) | _sampled(problem, plan, fluent) | plan.reported
     raised: list[str] = []
     facts |= recomputed(problem, facts, values, raised, skip=set(fluent))
     names = set(values) | {t for a in facts | plan.fluent_facts.keys() for t in a.args}

@@ -11,12 +11,13 @@ a list of them, a generator of them, a bool). :meth:`Procedure.implementation` g
 from __future__ import annotations
 
 import enum
+import itertools
 import logging
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
-from llmpas.language.bindings import Implementation, Kind
+from llmpas.language.bindings import Facts, Implementation, Kind
 from llmpas.language.bindings import StreamInfo as NativeInfo
 
 log = logging.getLogger(__name__)
@@ -51,7 +52,7 @@ class Procedure:
         if self.shape is Shape.TEST:
             return Implementation(_Truth(self.fn), Kind.TEST)
         if self.shape is Shape.FN:
-            return Implementation(self.fn, Kind.FUNCTION)
+            return Implementation(_Single(self.fn), Kind.FUNCTION)
         return Implementation(_Outputs(self.fn, self.shape), Kind.SAMPLER)
 
     def __call__(self, *inputs: Any, **kwargs: Any) -> Iterator[list[tuple[Any, ...]]]:
@@ -63,17 +64,61 @@ class Procedure:
             yield [] if out is None else [tuple(out)]
 
 
-class WildOutput(NamedTuple):
-    """PDDLStream's outputs with extra certified facts: refused when a stream returns one."""
+@dataclass(frozen=True)
+class WildOutput:
+    """PDDLStream's answer of one call with facts beyond the certified ones: ``values`` (the
+    output tuples) and ``facts`` (tuples ``(predicate, value, ...)``, true from then on).
+    ``enumerated=True``: the generator has nothing more. PDDLStream takes one from a
+    ``from_list_fn`` function or a generator of lists (a bare callable), and so does llmpas
+    (as :class:`~llmpas.language.bindings.Facts` items); ``actions`` is refused, as there."""
 
     values: Any = ()
     facts: Any = ()
+    actions: Any = ()
+    enumerated: bool = False
+    replan: bool = False
+
+    def __post_init__(self) -> None:
+        if self.actions:
+            raise TypeError("WildOutput(actions=...) is not supported (nor by PDDLStream)")
+
+    def __iter__(self) -> Iterator[Any]:
+        return iter((self.values, self.facts))
 
 
-def _no_wild(result: Any) -> Any:
+def _no_wild(result: Any, shape: Shape) -> Any:
     if isinstance(result, WildOutput):
-        raise TypeError("WildOutput (outputs with extra facts) is not supported by llmpas")
+        raise TypeError(
+            f"a from_{shape.value} function returned a WildOutput: PDDLStream takes one only "
+            "from from_list_fn or a generator of lists"
+        )
     return result
+
+
+def _batch(result: Any, more: bool = False) -> Iterator[Any]:
+    """One list of output tuples, or a WildOutput: its facts first (as :class:`Facts`), then its
+    output tuples; with ``more`` (a generator's batch), None when there is no output ("nothing
+    this time")."""
+    if not isinstance(result, WildOutput):
+        yield from result
+        return
+    facts = list(result.facts or ())
+    values = list(result.values or ())
+    if facts:
+        yield Facts(tuple(tuple(f) for f in facts))
+    if not values and more:
+        yield None
+    yield from values
+
+
+@dataclass(frozen=True)
+class _Single:
+    """A ``from_fn`` function: one output tuple, or None."""
+
+    fn: Callable[..., Any]
+
+    def __call__(self, *inputs: Any, **kwargs: Any) -> Any:  # kwargs: fluents
+        return _no_wild(self.fn(*inputs, **kwargs), Shape.FN)
 
 
 @dataclass(frozen=True)
@@ -94,17 +139,25 @@ class _Outputs:
     def __call__(self, *inputs: Any, **kwargs: Any) -> Iterator[Any]:  # kwargs: fluents
         if self.shape is Shape.SAMPLER:
             while True:
-                yield _no_wild(self.fn(*inputs, **kwargs))
-        result = _no_wild(self.fn(*inputs, **kwargs))
+                yield _no_wild(self.fn(*inputs, **kwargs), self.shape)
+        result = self.fn(*inputs, **kwargs)
         if result is None:
             return
+        if self.shape is Shape.LIST_FN:
+            yield from _batch(result)
+            return
+        _no_wild(result, self.shape)
         if self.shape is Shape.FN:
             yield result
-        elif self.shape is Shape.LIST_FN or self.shape is Shape.GEN:
-            yield from result
+        elif self.shape is Shape.GEN:
+            yield from (_no_wild(out, self.shape) for out in result)
         else:  # LIST_GEN
             for batch in result:
-                if not _no_wild(batch):
+                if isinstance(batch, WildOutput):
+                    yield from _batch(batch, more=True)
+                    if batch.enumerated:
+                        return
+                elif not batch:
                     yield None
                 else:
                     yield from batch
@@ -146,6 +199,50 @@ class _Constant:
 
     def __call__(self, *_: Any) -> Any:
         return self.value
+
+
+@dataclass(frozen=True, eq=False)
+class DebugValue:
+    """An output of PDDLStream's ``debug`` streams: a new object per call (``index`` counts
+    them), equal only to itself, as there."""
+
+    stream: str
+    input_values: tuple[Any, ...]
+    output_parameter: str
+    index: int
+
+    def __repr__(self) -> str:
+        return f"@{self.output_parameter.lstrip('?')}{self.index}"
+
+
+class SharedDebugValue(NamedTuple):
+    """An output of PDDLStream's ``shared_debug`` streams: one per stream and output."""
+
+    stream: str
+    output_parameter: str
+
+    def __repr__(self) -> str:
+        return f"&{self.output_parameter.lstrip('?')}"
+
+
+@dataclass(frozen=True)
+class _Debug:
+    """A stream of PDDLStream's debug ``stream_map``: one call, one output tuple of debug values
+    (a test passes)."""
+
+    stream: str
+    outputs: tuple[str, ...]
+    shared: bool
+    counter: Iterator[int] = field(default_factory=itertools.count, compare=False)
+
+    def __call__(self, *inputs: Any, **_: Any) -> tuple[Any, ...]:  # _: fluents
+        if self.shared:
+            return tuple(SharedDebugValue(self.stream, o) for o in self.outputs)
+        return tuple(DebugValue(self.stream, inputs, o, next(self.counter)) for o in self.outputs)
+
+
+def debug_stream(stream: str, outputs: tuple[str, ...], shared: bool) -> Procedure:
+    return from_fn(_Debug(stream, outputs, shared))
 
 
 def fn_from_constant(value: Any) -> Callable[..., Any]:

@@ -15,6 +15,7 @@ instance: they reach the executor, which must tell them apart.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import logging
 import time
@@ -23,7 +24,7 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
-from llmpas.language.bindings import BoundStream, Kind
+from llmpas.language.bindings import BoundStream, Facts, Kind
 from llmpas.language.domain import Domain
 from llmpas.language.logic import (
     And,
@@ -35,7 +36,7 @@ from llmpas.language.logic import (
     Or,
     Substitution,
 )
-from llmpas.language.problem import Problem, ValueNamer
+from llmpas.language.problem import Problem, ValueNamer, known_predicates, value_key
 from llmpas.language.semantics import Evaluator, State, Universe, nnf
 from llmpas.planning.externals import external_rewrite
 from llmpas.planning.fluents import CONTEXT_OBJECT
@@ -65,7 +66,7 @@ class Record:
 
     bound: BoundStream
     inputs: tuple[str, ...]
-    iterator: Iterator[tuple[Any, ...] | None] | None = None
+    iterator: Iterator[tuple[Any, ...] | Facts | None] | None = None
     calls: int = 0
     outputs: list[tuple[str, ...]] = field(default_factory=list)
     exhausted: bool = False
@@ -149,6 +150,11 @@ class StreamStore:
         self.exact: dict[tuple[str, tuple[str, ...], frozenset[Atom]], str] = {}
         self._context_names: dict[tuple[str, tuple[str, ...], frozenset[Atom]], str] = {}
         self._contexts = itertools.count(1)
+        #: facts streams reported beyond their certified ones (:class:`Facts`, PDDLStream's
+        #: WildOutput); also in ``facts``
+        self.wild: set[Atom] = set()
+        self._arity = known_predicates(problem.domain, problem.streams)
+        self._unknown: set[str] = set()
 
     def input_complexity(self, inputs: tuple[str, ...]) -> int:
         """The highest complexity of real objects among ``inputs`` (placeholders: see
@@ -256,15 +262,22 @@ class StreamStore:
             values = tuple(self.values.get(n, n) for n in rec.inputs)
             facts = self._fluents(rec.bound) if rec.fluents is None else rec.fluents
             fluents = rec.bound.fluent_arguments(facts, self.values)
-            rec.iterator = rec.bound.samples(values, fluents)
+            rec.iterator = rec.bound.items(values, fluents)
         iterator = rec.iterator
         empty = 0
+        reported = False
         while True:
             item = self._guard(rec, lambda: next(iterator, _END))
             if item is _END:
                 return None
+            if isinstance(item, Facts):
+                self._guard(rec, functools.partial(self._report, rec, item))
+                reported = True
+                continue
             if item is not None:
                 return item
+            if reported:  # new facts but no output this time: progress, not exhausted
+                return _IDLE
             empty += 1
             if (self.max_empty is not None and empty >= self.max_empty) or self.out_of_time():
                 return _IDLE
@@ -277,6 +290,46 @@ class StreamStore:
             raise StreamFailure(
                 f"stream {rec.bound.schema.name}({args}) raised {type(e).__name__}: {e}"
             ) from e
+
+    def _report(self, rec: Record, reported: Facts) -> None:
+        """Take the facts a call reported beyond its certified ones as true (PDDLStream's
+        WildOutput): a value equal to one of the instance's inputs is that input, another is
+        named as an output would be (and has the complexity of this call's outputs)."""
+        if rec.fluents is not None:
+            raise ValueError("a stream with :fluents reported facts beyond its certified ones")
+        inputs = {value_key(self.values.get(n, n)): n for n in rec.inputs}
+        complexity = self.complexity_of(rec)
+        derived = self.problem.domain.derived_names
+        for fact in reported.facts:
+            if not fact or not isinstance(fact[0], str):
+                raise ValueError(f"reported fact {fact!r} does not start with a predicate name")
+            pred, args = fact[0].lower(), fact[1:]
+            arity = self._arity.get(pred)
+            if pred in derived or pred == "=":
+                raise ValueError(f"reported fact {fact!r}: '{pred}' cannot be given as a fact")
+            if arity is None:
+                if pred not in self._unknown:
+                    self._unknown.add(pred)
+                    log.warning(
+                        "stream %s reported facts of '%s', which neither the domain nor a "
+                        "stream uses: ignored",
+                        rec.bound.schema.name,
+                        pred,
+                    )
+                continue
+            if arity != len(args):
+                raise ValueError(
+                    f"reported fact {fact!r}: '{pred}' takes {arity} arguments, given {len(args)}"
+                )
+            names = []
+            for v in args:
+                n = inputs.get(value_key(v)) or self._name(v)
+                if n not in self._given:
+                    self.complexity[n] = min(self.complexity.get(n, complexity), complexity)
+                names.append(n)
+            atom = Atom(pred, tuple(names))
+            self.facts.add(atom)
+            self.wild.add(atom)
 
     def _fluents(self, bound: BoundStream) -> list[Atom]:
         preds = set(bound.schema.fluents)

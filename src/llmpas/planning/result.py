@@ -62,6 +62,9 @@ class Plan:
     # facts of streams with ``:fluents`` the plan relies on (also in ``certified``), each with
     # the contexts (fluent facts) it was certified in: it holds only in states with those facts
     fluent_facts: Mapping[Atom, frozenset[frozenset[Atom]]] = field(default_factory=dict)
+    # facts streams reported beyond their certified ones (PDDLStream's WildOutput; also in
+    # ``certified``): true on the stream's word, as certified facts are
+    reported: frozenset[Atom] = frozenset()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "objects", MappingProxyType(dict(self.objects)))

@@ -351,7 +351,7 @@ def plan_focused(run: Run) -> PlanResult:
         if found is None:  # no plan (no cheaper plan) even with every enabled instance assumed
             if run.incumbent is not None and not run.quality.keep_sampling:
                 return run.result(PlanStatus.UNSOLVABLE, _unsolvable_message(run))
-            if _widen(run, closure):
+            if _widen(run, closure) or _eager_pending(run):
                 continue
             return run.result(PlanStatus.UNSOLVABLE, _unsolvable_message(run))
         actions, cost = found
@@ -416,6 +416,19 @@ def _negative_streams(run: Run) -> list[BoundStream]:
             and any(a.predicate in run.negative_tests for a in b.schema.certified)
         )
     ]
+
+
+def _eager_pending(run: Run) -> bool:
+    """Whether a stream evaluated before each search (``_negative_streams``) has a real binding
+    not called yet: facts it or another produced (outputs, or reported :class:`Facts`) since
+    the evaluation before this search. The next iteration calls them."""
+    state = State(run.store.facts)
+    for b in _negative_streams(run):
+        for env in join(b.schema.domain, state):
+            rec = run.store.records.get((b.schema.name, tuple(env[v] for v in b.schema.inputs)))
+            if rec is None or (rec.calls == 0 and not rec.exhausted):
+                return True
+    return False
 
 
 def _widen(run: Run, closure: Closure) -> bool:
@@ -762,6 +775,7 @@ def _one_level(run: Run) -> bool:
     or may still produce (a sampler that yielded only ``None`` this time)."""
     store = run.store
     state = State(store.facts)
+    known = len(store.facts)
     produced = False
     for b in run.problem.bound_streams.values():
         if run.deferred(b):
@@ -772,7 +786,7 @@ def _one_level(run: Run) -> bool:
                 produced = True
             if store.out_of_time():
                 return True
-    return produced
+    return produced or len(store.facts) > known  # reported facts (WildOutput) are progress
 
 
 # ----------------------------------------------------------------------------------- search
@@ -1038,6 +1052,7 @@ def _final_plan(
         deferred=deferred,
         deferred_facts=facts,
         fluent_facts={a: frozenset(run.store.fluent_facts[a]) for a in in_context},
+        reported=frozenset(run.store.wild - run.problem.init),
     )
 
 
