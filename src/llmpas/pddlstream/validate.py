@@ -23,7 +23,6 @@ from dataclasses import dataclass
 from typing import Any
 
 from llmpas.language.bindings import BoundStream
-from llmpas.language.errors import ModelError
 from llmpas.language.logic import Atom, Formula, FuncTerm
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import Replay, Semantics, replay
@@ -163,28 +162,8 @@ class _InContext:
     def replay(
         self, init: set[Atom], steps: list[tuple[str, tuple[str, ...]]], goal: Formula
     ) -> Replay:
-        sem = self.sem
-        base = set(init)
-        states = [frozenset(base)]
-        total = 0.0
-        for i, (name, args) in enumerate(steps):
-            extra = self.facts(base) - base
-            state = sem.state(base | extra)
-            try:
-                action = sem.domain.action(name)
-                ok = sem.applicable(action, args, state)
-            except ModelError as e:
-                return Replay(False, f"step {i + 1}: {e}", total, tuple(states), i)
-            if not ok:
-                msg = f"step {i + 1}: precondition of ({name} {' '.join(args)}) does not hold"
-                return Replay(False, msg, total, tuple(states), i)
-            new, c = sem.apply(action, args, state)
-            base = new - extra
-            total += c
-            states.append(frozenset(base))
-        if not sem.holds(goal, base | self.facts(base)):
-            return Replay(False, "the goal does not hold after the last step", total, tuple(states))
-        return Replay(True, "ok", total, tuple(states))
+        """The plan replayed with the stream facts recomputed in every state."""
+        return replay(self.sem, init, steps, goal, implied=self.facts)
 
 
 def recomputed(
