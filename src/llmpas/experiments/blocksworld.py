@@ -276,7 +276,8 @@ def _reference_note(result: Mapping[str, Any]) -> str:
     """Why the optimal search gave no plan ("" when it solved the task)."""
     if result["status"] == ClassicalStatus.SOLVED.value:
         return ""
-    return f"Fast Downward's optimal search: {result['status']}: {result['message']}".strip()
+    why = f": {result['message']}" if result["message"] else ""
+    return f"Fast Downward's optimal search: {result['status']}{why}"
 
 
 def _reference_job(task: Task) -> dict[str, Any]:
