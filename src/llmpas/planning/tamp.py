@@ -125,6 +125,7 @@ class Run:
     planners: dict[str, ClassicalPlanner] = field(default_factory=dict)  # by search string
     fluent: dict[str, BoundStream] = field(default_factory=dict)  # evaluated fluent streams
     depth: int | None = None  # focused: the closure's depth near a new incumbent (None: max)
+    shared: bool = False  # focused: placeholders shared (config, or a closure too large unshared)
 
     @property
     def fluent_by_predicate(self) -> dict[str, str]:
@@ -300,6 +301,7 @@ def _solve_once(
         inline=inline,
         started_cpu=_cpu(),
         fluent=fluent,
+        shared=config.share_placeholders,
     )
     run.domain_text = guard_quantifiers(run.compiled.domain).to_pddl()
     try:
@@ -371,16 +373,37 @@ def plan_focused(run: Run) -> PlanResult:
 
 def _closure(run: Run) -> tuple[Closure, list[OptInstance]]:
     """The optimistic closure for the next search (within the complexity limit, and the
-    depth of an improving search), with the function values it needs."""
+    depth of an improving search), with the function values it needs. One placeholder per
+    instance unless the config shares them, or until a closure would exceed ``max_instances``
+    so: then they are shared for the rest of the run (a closure too large even so: the
+    :class:`LimitReached` ends the run)."""
+    try:
+        closure, opt = _build_closure(run)
+    except LimitReached:
+        if run.shared:
+            raise
+        run.shared = True  # for the rest of the run: the next closures are as large
+        log.info(
+            "iteration %d: more than %d optimistic instances with one placeholder per "
+            "instance; placeholders are shared from now on",
+            run.iterations,
+            run.config.max_instances,
+        )
+        closure, opt = _build_closure(run)
+    _update_costs(run, opt)
+    return closure, opt
+
+
+def _build_closure(run: Run) -> tuple[Closure, list[OptInstance]]:
     closure = Closure(run.complexity_limit, run.evidence)
     opt = optimistic_instances(
         run.store,
         run.instantiated,
         run.config.max_level if run.depth is None else run.depth,
-        shared=lambda b: run.config.share_placeholders and not run.deferred(b),
+        limit=run.config.max_instances,
+        shared=lambda b: run.shared and not run.deferred(b),
         closure=closure,
     )
-    _update_costs(run, opt)
     return closure, opt
 
 
