@@ -240,3 +240,25 @@ def test_a_call_of_a_stream_without_fluents_does_not_scan_the_facts() -> None:
     [(pose,)] = store.records[("sample-pose", ("cup", "s1"))].outputs
     _called(store, "test-fits", "cup", pose)
     assert facts.scans == 0  # scanning them on every call made planning quadratic in the facts
+
+
+def test_no_plan_over_placeholders_shared_for_the_limit_is_a_limit_not_unsolvable() -> None:
+    problem = walk_problem(3)
+    dead_end = Problem.create(  # the same walk, where no step gives a value
+        problem.domain,
+        problem.streams,
+        init=[("Val", 0), ("At", 0), ("Dir", "d0"), ("Dir", "d1"), ("Dir", "d2")],
+        goal="(exists (?x) (and (At ?x) (Far ?x)))",
+        implementations={
+            "step": sampler(lambda x, d: iter(())),
+            "test-far": test(lambda x: x >= 100),
+        },
+    )
+    # 3 + 9 + 27 + 81 steps with one placeholder per instance: over 60; shared: under it
+    result = solve(dead_end, PlannerConfig(max_time=60, max_instances=60))
+    assert result.status is PlanStatus.LIMIT, result.message
+    assert "over shared placeholders" in result.message
+    assert "max_instances=60" in result.message
+    # within the limit, the same task is unsolvable
+    unshared = solve(dead_end, PlannerConfig(max_time=60))
+    assert unshared.status is PlanStatus.UNSOLVABLE, unshared.message

@@ -57,7 +57,8 @@ class PlannerConfig:
     - ``max_level``: how deep stream outputs may feed other streams in one optimistic pass.
     - ``max_instances``: optimistic stream instances in one closure; beyond it with one
       placeholder per instance the closure is built again with shared placeholders (above),
-      and beyond it with shared ones planning stops with status ``limit``.
+      and beyond it with shared ones planning stops with status ``limit``. No plan found over
+      placeholders shared so is a ``limit`` too, not ``unsolvable`` (sharing is not complete).
 
     Fast Downward has no expansion or state limit (its engines offer only a cost ``bound`` and a
     ``max_time``), so a classical search runs until it finds a plan or exhausts its finite state

@@ -307,13 +307,28 @@ def _solve_once(
     try:
         plan = registry.algorithm(config.algorithm).load()
         result: PlanResult = plan(run)
-        return result
+        return _shared_verdict(run, result)
     except StreamFailure as e:
         return run.result(PlanStatus.ERROR, str(e))
     except LimitReached as e:
         return run.result(PlanStatus.LIMIT, str(e))
     except PlannerNotFound as e:
         return run.result(PlanStatus.ERROR, str(e))
+
+
+def _shared_verdict(run: Run, result: PlanResult) -> PlanResult:
+    """No plan over placeholders shared only because one per instance exceeded
+    ``max_instances`` is no verdict (sharing alone is not complete): a ``limit``, naming it."""
+    if result.status is not PlanStatus.UNSOLVABLE or not run.shared:
+        return result
+    if run.config.share_placeholders:
+        return result  # solve() plans again with one placeholder per instance
+    return dataclasses.replace(
+        result,
+        status=PlanStatus.LIMIT,
+        message=f"{result.message}, over shared placeholders: one per stream instance would "
+        f"exceed max_instances={run.config.max_instances}",
+    )
 
 
 # ------------------------------------------------------------------------------------ focused
