@@ -231,3 +231,12 @@ def test_init_values_of_undeclared_functions_are_ignored_once(caplog) -> None:
     assert plan is not None and cost == 1
     said = [r.getMessage() for r in caplog.records if "(= (cost ...) ...)" in r.getMessage()]
     assert len(said) == 1 and "declares no such function" in said[0]
+
+
+def test_read_pddl_reads_a_file_next_to_a_script(tmp_path) -> None:
+    from llmpas.pddlstream import utils
+
+    (tmp_path / "domain.pddl").write_text("(define (domain d))", encoding="utf-8")
+    script = tmp_path / "run.py"
+    # PDDLStream's read_pddl(this_file, pddl_filename), as cashpoint/run.py calls it
+    assert utils.read_pddl(str(script), "domain.pddl") == "(define (domain d))"

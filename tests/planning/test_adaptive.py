@@ -175,3 +175,90 @@ def test_a_plan_over_objects_above_the_complexity_limit_still_has_its_costs() ->
     result = solve(problem, config)
     assert result.status is PlanStatus.SOLVED, result.message
     assert result.plan is not None and result.plan.cost > 0
+
+
+WALK_DOMAIN = """
+(define (domain walk)
+  (:requirements :strips)
+  (:predicates (Val ?x) (Dir ?d) (Next ?x ?d ?y) (At ?x) (Far ?x))
+  (:action go :parameters (?x ?d ?y)
+    :precondition (and (At ?x) (Next ?x ?d ?y))
+    :effect (and (At ?y) (not (At ?x)))))
+"""
+WALK_STREAMS = """
+(define (stream walk)
+  (:stream step :inputs (?x ?d) :domain (and (Val ?x) (Dir ?d))
+    :outputs (?y) :certified (and (Val ?y) (Next ?x ?d ?y)))
+  (:stream test-far :inputs (?x) :domain (Val ?x) :certified (Far ?x)))
+"""
+
+
+def walk_problem(directions: int) -> Problem:
+    """From 0, each ``step`` in one of ``directions`` directions gives a new value (a walk: its
+    output feeds it again); the goal is a value two steps away."""
+    dirs = [f"d{k}" for k in range(directions)]
+    init: list[tuple[Any, ...]] = [("Val", 0), ("At", 0)] + [("Dir", d) for d in dirs]
+    return Problem.create(
+        parse_domain(WALK_DOMAIN),
+        parse_streams(WALK_STREAMS),
+        init=init,
+        goal="(exists (?x) (and (At ?x) (Far ?x)))",
+        implementations={
+            "step": sampler(lambda x, d: iter([(x * 100 + dirs.index(d) + 1,)])),
+            "test-far": test(lambda x: x >= 100),
+        },
+    )
+
+
+def test_a_closure_too_large_with_one_placeholder_per_instance_shares_them() -> None:
+    # 15 directions: 15 ** 4 = 50625 steps at level 4 alone with one placeholder per instance
+    # (over the default max_instances); about 15 per level when shared, as PDDLStream's are
+    result = solve(walk_problem(15), PlannerConfig(max_time=120))
+    assert result.status is PlanStatus.SOLVED, result.message
+    assert len(result.plan.steps) == 2  # type: ignore[union-attr]
+    # when even shared placeholders exceed the limit, planning stops at it
+    tight = solve(walk_problem(15), PlannerConfig(max_time=120, max_instances=20))
+    assert tight.status is PlanStatus.LIMIT
+    assert "more than 20 optimistic stream instances" in tight.message
+
+
+class _CountingSet(set[Any]):
+    """A set that counts how often it is iterated over."""
+
+    scans = 0
+
+    def __iter__(self) -> Iterator[Any]:
+        self.scans += 1
+        return super().__iter__()
+
+
+def test_a_call_of_a_stream_without_fluents_does_not_scan_the_facts() -> None:
+    store = StreamStore(shelf_problem(lambda s, k: True), deadline=float("inf"))
+    facts = _CountingSet(store.facts)
+    store.facts = facts
+    _called(store, "sample-pose", "cup", "s1")
+    [(pose,)] = store.records[("sample-pose", ("cup", "s1"))].outputs
+    _called(store, "test-fits", "cup", pose)
+    assert facts.scans == 0  # scanning them on every call made planning quadratic in the facts
+
+
+def test_no_plan_over_placeholders_shared_for_the_limit_is_a_limit_not_unsolvable() -> None:
+    problem = walk_problem(3)
+    dead_end = Problem.create(  # the same walk, where no step gives a value
+        problem.domain,
+        problem.streams,
+        init=[("Val", 0), ("At", 0), ("Dir", "d0"), ("Dir", "d1"), ("Dir", "d2")],
+        goal="(exists (?x) (and (At ?x) (Far ?x)))",
+        implementations={
+            "step": sampler(lambda x, d: iter(())),
+            "test-far": test(lambda x: x >= 100),
+        },
+    )
+    # 3 + 9 + 27 + 81 steps with one placeholder per instance: over 60; shared: under it
+    result = solve(dead_end, PlannerConfig(max_time=60, max_instances=60))
+    assert result.status is PlanStatus.LIMIT, result.message
+    assert "over shared placeholders" in result.message
+    assert "max_instances=60" in result.message
+    # within the limit, the same task is unsolvable
+    unshared = solve(dead_end, PlannerConfig(max_time=60))
+    assert unshared.status is PlanStatus.UNSOLVABLE, unshared.message

@@ -41,11 +41,14 @@ def read(filename: str | os.PathLike[str]) -> str:
     return PddlText(read_text(Path(filename), "file", PDDL_LIMIT), str(filename))
 
 
-read_pddl = read
-
-
 def get_file_path(file: str, rel_path: str) -> str:
     return os.path.join(os.path.dirname(os.path.abspath(file)), rel_path)
+
+
+def read_pddl(this_file: str, pddl_filename: str) -> str:
+    """The text of ``pddl_filename`` in the folder of ``this_file`` (a script's ``__file__``),
+    as PDDLStream's ``read_pddl`` (cashpoint/run.py calls it so)."""
+    return read(get_file_path(this_file, pddl_filename))
 
 
 def read_relative(file: str, relative_path: str) -> str:

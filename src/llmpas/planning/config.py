@@ -28,7 +28,12 @@ class PlannerConfig:
     unsolvable), so a task found unsolvable with shared placeholders is planned again from
     scratch with one per instance. Off by default: with the task kept small by the complexity
     limit, the guarded ``forall`` and the binding search, sharing measured no faster on
-    ``llmpas bench tamp`` (docs/results/tamp.md), and it changes which plans are found.
+    ``llmpas bench tamp`` (docs/results/tamp.md), and it changes which plans are found. When
+    off, a focused run still shares placeholders from the first optimistic closure that would
+    need more than ``max_instances`` instances with one placeholder per instance (streams whose
+    outputs feed themselves, such as a belief update applied to its own result, multiply per
+    level: ``n`` instances per value give ``n ** max_level``); sharing keeps about ``n`` per
+    level, as PDDLStream's shared optimistic objects do.
 
     Focused planning is adaptive, as PDDLStream's: an instance is assumed only while its
     *complexity* (the highest complexity of its inputs plus, for a stream with outputs, its
@@ -50,6 +55,10 @@ class PlannerConfig:
       within one call before the call gives up without an output (the instance stays usable).
       None: it may go on until ``max_time``, so the outcome depends on the machine's speed.
     - ``max_level``: how deep stream outputs may feed other streams in one optimistic pass.
+    - ``max_instances``: optimistic stream instances in one closure; beyond it with one
+      placeholder per instance the closure is built again with shared placeholders (above),
+      and beyond it with shared ones planning stops with status ``limit``. No plan found over
+      placeholders shared so is a ``limit`` too, not ``unsolvable`` (sharing is not complete).
 
     Fast Downward has no expansion or state limit (its engines offer only a cost ``bound`` and a
     ``max_time``), so a classical search runs until it finds a plan or exhausts its finite state
@@ -111,6 +120,7 @@ class PlannerConfig:
     patience: int = 10  # anytime: iterations without a cheaper plan before it stops
     max_stream_calls: int | None = None
     max_empty_samples: int | None = None
+    max_instances: int = 50_000  # optimistic stream instances in one closure
     classical: str = registry.DEFAULT_CLASSICAL
 
     def __post_init__(self) -> None:
@@ -120,8 +130,8 @@ class PlannerConfig:
             raise ValueError("max_time and search_time must be > 0")
         if not (math.isfinite(self.max_time) and math.isfinite(self.search_time)):
             raise ValueError("max_time and search_time must be finite (they are safety nets)")
-        if self.max_iterations < 1 or self.max_level < 1 or self.patience < 1:
-            raise ValueError("max_iterations, max_level and patience must be >= 1")
+        if min(self.max_iterations, self.max_level, self.patience, self.max_instances) < 1:
+            raise ValueError("max_iterations, max_level, patience and max_instances must be >= 1")
         if self.quality not in QUALITIES:
             raise ValueError(f"quality must be one of {', '.join(QUALITIES)}, got {self.quality!r}")
         if self.memory_mb < 64:

@@ -332,7 +332,11 @@ class StreamStore:
             self.wild.add(atom)
 
     def _fluents(self, bound: BoundStream) -> list[Atom]:
+        """The real facts of the stream's ``:fluents`` predicates (none without: the facts are
+        not scanned, which on every call would make planning quadratic in the facts)."""
         preds = set(bound.schema.fluents)
+        if not preds:
+            return []
         return sorted(a for a in self.facts if a.predicate in preds)
 
     def _name(self, value: Any) -> str:

@@ -125,6 +125,7 @@ class Run:
     planners: dict[str, ClassicalPlanner] = field(default_factory=dict)  # by search string
     fluent: dict[str, BoundStream] = field(default_factory=dict)  # evaluated fluent streams
     depth: int | None = None  # focused: the closure's depth near a new incumbent (None: max)
+    shared: bool = False  # focused: placeholders shared (config, or a closure too large unshared)
 
     @property
     def fluent_by_predicate(self) -> dict[str, str]:
@@ -300,18 +301,34 @@ def _solve_once(
         inline=inline,
         started_cpu=_cpu(),
         fluent=fluent,
+        shared=config.share_placeholders,
     )
     run.domain_text = guard_quantifiers(run.compiled.domain).to_pddl()
     try:
         plan = registry.algorithm(config.algorithm).load()
         result: PlanResult = plan(run)
-        return result
+        return _shared_verdict(run, result)
     except StreamFailure as e:
         return run.result(PlanStatus.ERROR, str(e))
     except LimitReached as e:
         return run.result(PlanStatus.LIMIT, str(e))
     except PlannerNotFound as e:
         return run.result(PlanStatus.ERROR, str(e))
+
+
+def _shared_verdict(run: Run, result: PlanResult) -> PlanResult:
+    """No plan over placeholders shared only because one per instance exceeded
+    ``max_instances`` is no verdict (sharing alone is not complete): a ``limit``, naming it."""
+    if result.status is not PlanStatus.UNSOLVABLE or not run.shared:
+        return result
+    if run.config.share_placeholders:
+        return result  # solve() plans again with one placeholder per instance
+    return dataclasses.replace(
+        result,
+        status=PlanStatus.LIMIT,
+        message=f"{result.message}, over shared placeholders: one per stream instance would "
+        f"exceed max_instances={run.config.max_instances}",
+    )
 
 
 # ------------------------------------------------------------------------------------ focused
@@ -371,16 +388,37 @@ def plan_focused(run: Run) -> PlanResult:
 
 def _closure(run: Run) -> tuple[Closure, list[OptInstance]]:
     """The optimistic closure for the next search (within the complexity limit, and the
-    depth of an improving search), with the function values it needs."""
+    depth of an improving search), with the function values it needs. One placeholder per
+    instance unless the config shares them, or until a closure would exceed ``max_instances``
+    so: then they are shared for the rest of the run (a closure too large even so: the
+    :class:`LimitReached` ends the run)."""
+    try:
+        closure, opt = _build_closure(run)
+    except LimitReached:
+        if run.shared:
+            raise
+        run.shared = True  # for the rest of the run: the next closures are as large
+        log.info(
+            "iteration %d: more than %d optimistic instances with one placeholder per "
+            "instance; placeholders are shared from now on",
+            run.iterations,
+            run.config.max_instances,
+        )
+        closure, opt = _build_closure(run)
+    _update_costs(run, opt)
+    return closure, opt
+
+
+def _build_closure(run: Run) -> tuple[Closure, list[OptInstance]]:
     closure = Closure(run.complexity_limit, run.evidence)
     opt = optimistic_instances(
         run.store,
         run.instantiated,
         run.config.max_level if run.depth is None else run.depth,
-        shared=lambda b: run.config.share_placeholders and not run.deferred(b),
+        limit=run.config.max_instances,
+        shared=lambda b: run.shared and not run.deferred(b),
         closure=closure,
     )
-    _update_costs(run, opt)
     return closure, opt
 
 
