@@ -132,7 +132,11 @@ def test_options_map_to_llmpas_info() -> None:
         {"make": StreamInfo(eager=True, overhead=3)},
     )
     info = tr.problem.bound_streams["make"].info
-    assert info.p_success == 0 and info.overhead == 3
+    assert info.eager and info.p_success == 1 and info.overhead == 3  # still assumed
+    tr = translate(
+        problem([("Obj", "x")], ("Done", "x")), {"make": StreamInfo(eager=True, p_success=0)}
+    )
+    assert tr.problem.bound_streams["make"].info.never_assumed
     assert FunctionInfo(lambda *a: 2).options[0][0] == "opt_fn"  # positional, as PDDLStream
 
 

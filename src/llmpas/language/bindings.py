@@ -46,7 +46,9 @@ class StreamInfo:
     an optimistic plan relies on: the one with the lowest ``overhead / p_success`` (after the
     shallowest). ``p_success=0`` (as in PDDLStream, an infinite expected cost) means the stream
     is never assumed: it gets no placeholder outputs, and each of its instances on real inputs
-    is called once, before the next search, instead (PDDLStream's ``eager``). ``max_outputs``
+    is called once, before the next search, instead. ``eager`` (PDDLStream's ``eager``): each
+    instance on real inputs is called before the next search, and the stream is still assumed
+    on inputs not computed yet (unless ``p_success=0``). ``max_outputs``
     bounds how many outputs one stream instance may produce during planning. ``opt_fn``
     (``:function`` only, PDDLStream's ``opt_fn``) gives a cost's optimistic value while some of
     its inputs are not computed yet: it gets the inputs' values, ``None`` for those not computed,
@@ -58,6 +60,7 @@ class StreamInfo:
     p_success: float = 1.0
     max_outputs: int = 10
     opt_fn: Callable[..., float] | None = None
+    eager: bool = False
 
     @property
     def expected_cost(self) -> float:
@@ -74,6 +77,8 @@ class StreamInfo:
             raise ValueError(f"overhead must be >= 0, got {self.overhead}")
         if self.max_outputs < 1:
             raise ValueError(f"max_outputs must be >= 1, got {self.max_outputs}")
+        if self.deferred and self.eager:
+            raise ValueError("a stream cannot be both deferred and eager")
         if self.deferred and self.never_assumed:
             raise ValueError("a deferred stream is assumed while planning: p_success must be > 0")
         if self.opt_fn is not None and not callable(self.opt_fn):

@@ -321,7 +321,7 @@ class PartialInputs(NamedTuple):
 _USED = {
     "p_success": "the probability of success (llmpas p_success)",
     "overhead": "the expected cost of one call (llmpas overhead)",
-    "eager": "eager=True: called on real inputs before each search (llmpas p_success=0)",
+    "eager": "eager=True: called on real inputs before each search (llmpas eager)",
     "opt_fn": "a cost's optimistic value (llmpas opt_fn)",
 }
 _SILENT = {"verbose", "defer_fn", "opt_gen_fn"}  # their default values mean nothing here
@@ -373,8 +373,8 @@ class ExternalInfo:
         opts = dict(self.options)
         p_success = opts.get("p_success")
         kwargs: dict[str, Any] = {}
-        if opts.get("eager"):
-            p_success = 0.0
+        if opts.get("eager") and self.kind == "stream":
+            kwargs["eager"] = True
         if p_success is not None:
             kwargs["p_success"] = max(0.0, min(1.0, float(p_success)))
         if opts.get("overhead") is not None:

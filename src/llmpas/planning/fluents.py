@@ -89,7 +89,7 @@ def unsupported_fluents(
     owner: dict[str, str] = {}
     for name, b in sorted(streams.items()):
         s = b.schema
-        if b.info.never_assumed:
+        if b.info.never_assumed or b.info.eager:
             return (
                 f"stream {name!r}: ':fluents' on a stream evaluated before search "
                 "(eager, p_success=0)"

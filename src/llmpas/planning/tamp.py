@@ -442,12 +442,13 @@ def _iteration_limit(run: Run) -> PlanResult:
 
 
 def _negative_streams(run: Run) -> list[BoundStream]:
-    """Non-deferred tests whose certified atoms occur negated, and streams never assumed
-    (``p_success=0``): evaluated on every real binding before a search."""
+    """Non-deferred tests whose certified atoms occur negated, streams never assumed
+    (``p_success=0``) and eager ones: evaluated on every real binding before a search."""
     return [
         b
         for b in run.problem.bound_streams.values()
         if b.info.never_assumed
+        or b.info.eager
         or (
             b.schema.is_test
             and not run.deferred(b)
