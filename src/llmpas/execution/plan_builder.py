@@ -74,6 +74,14 @@ def failing_literal(
     return None
 
 
+MERGED_PREFIX = "move-and-"  # a subtree's action when a base move is merged into the step
+
+
+def planned_action(action: str) -> str:
+    """The plan's action a subtree's (possibly merged) action stands for."""
+    return action.removeprefix(MERGED_PREFIX)
+
+
 def shown(args: tuple[str, ...]) -> list[str]:
     """Plan arguments for labels: placeholders of deferred streams are shown as '?'."""
     return [a if not a.startswith("#") else "?" for a in args]
@@ -124,7 +132,7 @@ class PlanBuilder:
 
     def spec(self, idx: tuple[int, ...], step: PlanStep, merged: bool) -> SubtreeSpec:
         dims, subs = self.recipe(step)
-        prefix = "move-and-" if merged else ""
+        prefix = MERGED_PREFIX if merged else ""
         args = shown(step.args)
         steps = [self.plan.steps[k] for k in idx]
         return SubtreeSpec(
@@ -225,4 +233,12 @@ class PlanBuilder:
         return forget
 
 
-__all__ = ["BaseMoves", "PlanBuilder", "Recipe", "failing_literal", "shown"]
+__all__ = [
+    "MERGED_PREFIX",
+    "BaseMoves",
+    "PlanBuilder",
+    "Recipe",
+    "failing_literal",
+    "planned_action",
+    "shown",
+]

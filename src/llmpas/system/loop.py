@@ -22,10 +22,11 @@ from llmpas.execution.context import Recorder
 from llmpas.execution.csubbt import SubtreeSpec
 from llmpas.execution.executor import Episode
 from llmpas.execution.executor import execute as execute_specs
+from llmpas.execution.plan_builder import planned_action
 from llmpas.language.logic import And, Atom, Formula, Not, atoms_of
 from llmpas.language.problem import Problem, parse_formula
 from llmpas.language.semantics import Semantics
-from llmpas.planning import PlannerConfig, PlanResult, solve
+from llmpas.planning import Plan, PlannerConfig, PlanResult, solve
 from llmpas.reasoning.assists import Assists
 from llmpas.reasoning.goals import Literal
 from llmpas.reasoning.llm import LLM, LLMError, Request, Response
@@ -350,7 +351,7 @@ class _Loop:
         task = parse_formula(self.session.task, self.sem.domain)
         both = kept_goal(task, self.stages.kept, goals)
         result, problem = self.plan(both)
-        repeats = result.solved and self.repeats_unexplained(result)
+        repeats = result.solved and self.repeats_unexplained(result, problem)
         if result.solved and not repeats and not self.reordered(result, problem, goals):
             return both, str(both)
         goal = kept_goal(And(()), self.stages.kept, goals)
@@ -398,20 +399,52 @@ class _Loop:
             belief=belief,
         )
 
-    def repeats_unexplained(self, result: PlanResult) -> bool:
-        """The plan contains the step whose failure is the anomaly, and the anomaly is that
-        step's own failure (its literal names the action, with no arguments: no fact of the
-        belief says why). Nothing tells the planner to achieve the new goals before it, so
-        planned together with the task it would fail again."""
-        report = self.report
-        c = report.constraint if report is not None else None
-        if report is None or not (isinstance(c, Atom) and not c.args):
+    def repeats_unexplained(self, result: PlanResult, problem: Problem) -> bool:
+        """The plan contains the step whose failure is the anomaly, and nothing the robot
+        believes says why it failed (:func:`repeats_failure`). Nothing tells the planner to
+        achieve the new goals before it, so planned together with the task it would fail
+        again."""
+        if self.report is None or result.plan is None:
             return False
-        if c.predicate != report.action or result.plan is None:
+        return repeats_failure(self.sem, self.report, result.plan, problem)
+
+
+def repeats_failure(sem: Semantics, report: AnomalyReport, plan: Plan, problem: Problem) -> bool:
+    """Whether ``plan`` repeats the step whose failure ``report`` is, with nothing the robot
+    believes saying why it failed: the report's literal names the action, with no arguments
+    (the step's own failure; the same step again), or it is an atom of the domain that the
+    problem's facts say holds (a check of the world that the belief has no fact for, such as a
+    bowl a lid lies on: ``(accessible bowl)`` is true in the belief; the same action on the same
+    objects again, whatever its poses, grasps and bases, which are new in every plan)."""
+    c = report.constraint
+    if not isinstance(c, Atom):
+        return False
+    steps = plan.steps
+    if not c.args:
+        if c.predicate != report.action:
             return False
-        return any(
-            step.action == report.action and step.args == report.args for step in result.plan.steps
-        )
+        return any(s.action == report.action and s.args == report.args for s in steps)
+    if not believed(sem, c, problem):
+        return False
+    action = planned_action(report.action)
+    return any(s.action == action and same_objects(s.args, report.args, problem) for s in steps)
+
+
+def believed(sem: Semantics, c: Atom, problem: Problem) -> bool:
+    """Whether ``c``, an atom of the domain, holds in the problem's initial facts."""
+    if sem.domain.arity(c.predicate) != len(c.args):
+        return False  # a check's own literal (a base motion, a reach), not the domain's
+    if any(a not in problem.objects for a in c.args):
+        return False
+    return sem.holds(c, problem.init)
+
+
+def same_objects(args: tuple[str, ...], failed: tuple[str, ...], problem: Problem) -> bool:
+    """The same arguments where the failed step had an object of the problem's own (a name that
+    is its own value: ``cube``, ``bowl``), whatever the others (poses, bases, grasps)."""
+    if len(args) != len(failed):
+        return False
+    return all(a == b for a, b in zip(args, failed, strict=True) if problem.objects.get(b) == b)
 
 
 def close_loop(
@@ -506,4 +539,5 @@ __all__ = [
     "execute",
     "fixed",
     "plan",
+    "repeats_failure",
 ]

@@ -59,8 +59,8 @@ def test_object_loss_with_the_oracle_writes_the_episode_folder(tmp_path: Path) -
 
 
 @pytest.mark.slow
-def test_action_blocking_recovers_with_the_oracle() -> None:
-    result = run_loop("action-blocking", ORACLE, LoopConfig(options=QUIET))
+def test_action_blocking_seen_recovers_with_the_oracle() -> None:
+    result = run_loop("action-blocking-seen", ORACLE, LoopConfig(options=QUIET))
     assert result.success, result.message
     first = result.rounds[0]
     assert first.proposal is not None
@@ -165,12 +165,12 @@ def _replayed(scenario: str, seed: int) -> bool:
     return result.success
 
 
-@pytest.mark.parametrize("scenario", ["action-blocking", "object-loss-seen"])
+@pytest.mark.parametrize("scenario", ["action-blocking-seen", "object-loss-seen"])
 def test_the_offline_models_recorded_answers_recover(scenario: str) -> None:
     assert _replayed(scenario, 0)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("scenario", ["action-blocking", "object-loss-seen"])
+@pytest.mark.parametrize("scenario", ["action-blocking-seen", "object-loss-seen"])
 def test_the_offline_model_succeeds_in_9_of_10_seeds(scenario: str) -> None:
     assert sum(_replayed(scenario, seed) for seed in range(10)) >= 9

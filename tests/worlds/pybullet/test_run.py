@@ -74,8 +74,8 @@ def test_object_loss_ends_in_an_anomaly_naming_the_lost_cube() -> None:
     assert not run.achieved
 
 
-def test_action_blocking_ends_in_an_anomaly_naming_the_full_bowl() -> None:
-    run = once("action-blocking")
+def test_action_blocking_seen_ends_in_an_anomaly_naming_the_full_bowl() -> None:
+    run = once("action-blocking-seen")
     assert run.episode is not None and run.episode.status is ExecStatus.ANOMALY
     report = run.episode.anomaly
     assert report is not None
@@ -91,7 +91,7 @@ def test_action_blocking_ends_in_an_anomaly_naming_the_full_bowl() -> None:
 
 def test_scenarios_are_valid_and_named() -> None:
     known = scenarios()
-    assert {"nominal", "object-loss", "action-blocking"} <= set(known)
+    assert {"nominal", "object-loss", "action-blocking", "action-blocking-seen"} <= set(known)
     with pytest.raises(ValueError):
         PyBulletScenario("bad", "", SceneConfig(), "(and (On cube bowl))", unknown=("ghost",))
     with pytest.raises(KeyError):
@@ -136,7 +136,7 @@ def test_streams_produce_real_geometry() -> None:
 
 
 def test_static_facts_make_the_bowl_hold_one_cube() -> None:
-    facts = static_facts(scenarios()["action-blocking"].scene)
+    facts = static_facts(scenarios()["action-blocking-seen"].scene)
     assert Atom.of("Single", "bowl") in facts
     assert Atom.of("Stackable", "black_cube", "bowl") in facts
     assert Atom.of("Stackable", "bowl", "bowl") not in facts

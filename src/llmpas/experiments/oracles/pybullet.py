@@ -6,7 +6,8 @@ from __future__ import annotations
 from llmpas.experiments.oracles import TruthOracle
 from llmpas.language.logic import Atom, Not
 from llmpas.worlds.pybullet.plugin import PyBulletSession
-from llmpas.worlds.pybullet.scene import Scene
+from llmpas.worlds.pybullet.run import bottom, over
+from llmpas.worlds.pybullet.scene import RIM_MARGIN, Scene
 
 
 class Oracle(TruthOracle):
@@ -24,16 +25,37 @@ class Oracle(TruthOracle):
             )
             return [Atom("scanned", (table,))] if table else []
         if atom.predicate == "full":
-            return self._clear(atom.args[0])
+            return self._clear(self._inside(atom.args[0]))
+        if atom.predicate == "accessible" and not negated:
+            return self._clear(self._covering(atom.args[0]))
         return []
 
-    def _clear(self, bowl: str) -> list[Atom | Not]:
+    def _inside(self, bowl: str) -> list[str]:
+        """The cubes in the bowl (not the one held)."""
         scene = self.scene
-        blockers = [
+        return [
             o.name
             for o in scene.config.objects
             if o.kind == "cube" and o.name != scene.held and self._in(o.name, bowl)
         ]
+
+    def _covering(self, region: str) -> list[str]:
+        """What lies over a bowl, above its rim (a lid): in the truth, not in any belief."""
+        scene = self.scene
+        if region not in {o.name for o in scene.config.objects}:
+            return []
+        rim = float(scene.pose(region)[0][2]) + scene.config.obj(region).height
+        return [
+            o.name
+            for o in scene.config.objects
+            if o.name not in (region, scene.held)
+            and over(scene, o.name, region)
+            and bottom(scene, o.name) > rim - RIM_MARGIN
+        ]
+
+    def _clear(self, blockers: list[str]) -> list[Atom | Not]:
+        """Put the first of ``blockers`` on a table nothing is on (else the first table)."""
+        scene = self.scene
         occupied = {
             t
             for o in scene.config.objects

@@ -19,7 +19,7 @@ import numpy as np
 import pybullet as p
 
 from llmpas.execution.world import Detection, Observation
-from llmpas.worlds.pybullet.scene import HAND_LINK, Scene
+from llmpas.worlds.pybullet.scene import HAND_LINK, RIM_MARGIN, Scene
 from llmpas.worlds.pybullet.values import ObjectPose, Vector
 
 MAST = (0.05, 0.0, 1.25)  # the head on the Husky (base frame)
@@ -151,10 +151,10 @@ def detect(
         if n < cfg.min_pixels:
             continue
         pts = image.points(mask)
-        if o.kind == "cube":
+        if o.graspable:  # its top face (a lid's: its knob's) gives its centre
             top = pts[pts[:, 2] >= pts[:, 2].max() - 0.01]
             xy = (top[:, :2].min(axis=0) + top[:, :2].max(axis=0)) / 2
-            z = float(pts[:, 2].max()) - o.size / 2
+            z = float(pts[:, 2].max()) - o.height / 2
         else:
             xy = (pts[:, :2].min(axis=0) + pts[:, :2].max(axis=0)) / 2
             z = float(pts[:, 2].min())
@@ -176,9 +176,15 @@ def detect(
 
 
 def _region(scene: Scene, name: str, est: np.ndarray, bowls: dict[str, np.ndarray]) -> str | None:
+    """A bowl when the object is over its inside and its bottom below the bowl's rim; else the
+    table under it (an object lying on a bowl's rim, a lid on it, is not in the bowl)."""
+    o = scene.config.obj(name)
+    bottom = float(est[2]) - (o.height / 2 if o.graspable else 0.0)
     for b, at in bowls.items():
-        half = scene.config.obj(b).size / 2
-        if b != name and abs(est[0] - at[0]) <= half and abs(est[1] - at[1]) <= half:
+        bowl = scene.config.obj(b)
+        half = bowl.size / 2
+        inside = abs(est[0] - at[0]) <= half and abs(est[1] - at[1]) <= half
+        if b != name and inside and bottom < float(at[2]) + bowl.height - RIM_MARGIN:
             return b
     for t, rect in scene.tables.items():
         if rect.contains(float(est[0]), float(est[1])):

@@ -26,7 +26,7 @@ from llmpas.worlds.kitchen.belief import DETECTION
 from llmpas.worlds.kitchen.decomposition import OK, KitchenBuilder
 from llmpas.worlds.kitchen.decomposition import ExplorationConfig as KitchenExploration
 from llmpas.worlds.pybullet.problem import believe_at, believed_pose
-from llmpas.worlds.pybullet.scene import TABLE_TOP, SceneConfig
+from llmpas.worlds.pybullet.scene import RIM_MARGIN, TABLE_TOP, SceneConfig
 from llmpas.worlds.pybullet.values import ArmGoal, BaseConf, BasePath, ObjectPose
 
 MERGED = ("pick", "place", "scan_table")
@@ -69,6 +69,32 @@ def observe(belief: Belief, config: SceneConfig, obs: Observation) -> None:
                 belief.values[a.args[1]] = d.pose
             continue
         believe_at(belief, d.obj, d.pose)
+
+
+def covering(
+    config: SceneConfig,
+    obs: Observation | None,
+    spot: ObjectPose,
+    rest: float,
+    ignore: tuple[str, ...] = (),
+    width: float = 0.0,
+) -> str | None:
+    """An object the look saw lying over ``spot`` higher than ``rest``, the z a placed object's
+    bottom would rest at (a lid on a bowl's rim over the bowl's inside): its footprint overlaps
+    that of the object to place there (``width`` wide), so the hand cannot put it down. Read from
+    the detections alone: the belief has no fact for it (such an object is on the table under
+    it, not in the bowl)."""
+    known = {o.name: o for o in config.objects}
+    for d in obs.detections if obs is not None else ():
+        o = known.get(d.obj)
+        if o is None or d.obj in ignore or not isinstance(d.pose, ObjectPose):
+            continue
+        half = (o.size + width) / 2
+        bottom = d.pose.z - (o.height / 2 if o.graspable else 0.0)
+        over = abs(d.pose.x - spot.x) <= half and abs(d.pose.y - spot.y) <= half
+        if over and bottom > rest + RIM_MARGIN:
+            return d.obj
+    return None
 
 
 class Builder(KitchenBuilder):
@@ -224,7 +250,7 @@ class Builder(KitchenBuilder):
         obj, p, region = step.args[0], step.args[1], step.args[2]
         bowls = {o.name for o in self.config.objects if o.kind == "bowl"}
         planned = self.plan.objects.get(p) or self.problem.objects.get(p)
-        size = self.config.obj(obj).size
+        height = self.config.obj(obj).height
 
         def look_region(v: Values, ctx: Context) -> str:
             return table_of(self.config, ctx.belief, region)
@@ -234,7 +260,7 @@ class Builder(KitchenBuilder):
                 at = believed_pose(ctx.belief, region)
                 if at is None:
                     return f"{region} is nowhere the robot knows"
-                z = TABLE_TOP + 0.01 + size / 2 + self.exploration.drop
+                z = TABLE_TOP + 0.01 + height / 2 + self.exploration.drop
                 ctx.perceive("spot", ObjectPose(region, at.x, at.y, z))
                 return None
             if not isinstance(planned, ObjectPose):
@@ -244,7 +270,16 @@ class Builder(KitchenBuilder):
             )
             return None
 
+        def uncovered(v: Values, ctx: Context) -> str | None:
+            rest = v["spot"].z - self.exploration.drop - height / 2  # where its bottom goes
+            width = self.config.obj(obj).size
+            d = covering(self.config, v.get("observed"), v["spot"], rest, (obj, region), width)
+            return None if d is None else f"{d} lies over {region}, covering it"
+
         spot = Constraint("Located", find_spot, lambda v: Atom("region", (region,)))
+        clear = Constraint(
+            "Uncovered", uncovered, lambda v: Atom("accessible", (region,)), needs=("view_base",)
+        )
         released = Constraint(
             "Released", lambda v, c: None, lambda v: Atom("on", (obj, region)), needs=("base",)
         )
@@ -255,7 +290,7 @@ class Builder(KitchenBuilder):
         return dims, (
             self._go("go_look", "view_base"),
             self._look(look_region),
-            self._check(step, spot),
+            self._check(step, spot, clear),
             self._go("pre_approach_base", "base"),
             self._arm("pre_approach", lambda v: v["spot"], "pre", obj),
             self._arm("approach", lambda v: v["spot"], "at", obj),

@@ -26,7 +26,7 @@ PROGRAM_CALLS = MappingProxyType(dict(CALLS))
 
 
 def vocabulary(config: SceneConfig) -> Vocabulary:
-    objects = frozenset(o.name for o in config.objects if o.kind == "cube")
+    objects = frozenset(o.name for o in config.objects if o.graspable)
     everything = frozenset(o.name for o in config.objects)
     tables = frozenset(t.name for t in config.tables)
     bowls = frozenset(o.name for o in config.objects if o.kind == "bowl")

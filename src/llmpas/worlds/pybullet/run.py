@@ -23,6 +23,7 @@ from llmpas.language.logic import Atom
 from llmpas.worlds.api import holds
 from llmpas.worlds.pybullet.problem import initial_belief
 from llmpas.worlds.pybullet.scene import (
+    RIM_MARGIN,
     TABLE_TOP,
     ObjectConfig,
     Scene,
@@ -46,6 +47,7 @@ class PyBulletScenario:
     goal: str
     seed: int = 0
     inside: tuple[tuple[str, str], ...] = ()  # (object, bowl): starts inside the bowl
+    covers: tuple[tuple[str, str], ...] = ()  # (lid, bowl): starts lying on the bowl's rim
     unknown: tuple[str, ...] = ()  # objects the robot does not know the whereabouts of
     events: tuple[Event, ...] = ()
     belief_noise: float = 0.0  # metres: error of the believed initial object positions
@@ -53,7 +55,7 @@ class PyBulletScenario:
 
     def __post_init__(self) -> None:
         names = {o.name for o in self.scene.objects}
-        for obj, bowl in self.inside:
+        for obj, bowl in (*self.inside, *self.covers):
             if obj not in names or bowl not in names:
                 raise ValueError(f"scenario {self.name!r}: unknown object in {(obj, bowl)}")
         for n in (*self.unknown, *(e.obj for e in self.events)):
@@ -104,6 +106,7 @@ def _four_tables() -> tuple[TableConfig, ...]:
 def scenarios() -> dict[str, PyBulletScenario]:
     goal = "(and (On cube bowl))"
     blocker = ObjectConfig("black_cube", "cube", "table2", 0.5, 0.3, "black")
+    lid = ObjectConfig("lid", "lid", "table2", 0.45, 0.25, "red", 0.2)  # laid on the bowl
     return {
         s.name: s
         for s in (
@@ -145,8 +148,24 @@ def scenarios() -> dict[str, PyBulletScenario]:
             ),
             PyBulletScenario(
                 "action-blocking",
-                "Action blocking: put the green cube into the bowl. The bowl already holds the "
-                "black cube, which the robot does not know about; the bowl holds one object.",
+                "Action blocking that needs reasoning: put the green cube into the bowl. Someone "
+                "has laid a red lid on the bowl, which the robot does not know about. Its camera "
+                "sees the lid on table2 (lying on the bowl's rim, not in it), so nothing it "
+                "believes says the bowl cannot be put into: the place stops when the robot sees "
+                "the lid over the spot. Replanning the task alone repeats the place; taking the "
+                "lid off the bowl is what recovers.",
+                SceneConfig(objects=_objects(lid)),
+                goal,
+                seed=6,
+                covers=(("lid", "bowl"),),
+                unknown=("lid",),
+            ),
+            PyBulletScenario(
+                "action-blocking-seen",
+                "Action blocking the robot sees: put the green cube into the bowl. The bowl "
+                "already holds the black cube, which the robot does not know about; the bowl "
+                "holds one object. The robot sees the black cube in the bowl, so replanning the "
+                "task alone recovers (it takes the black cube out first).",
                 SceneConfig(objects=_objects(blocker)),
                 goal,
                 seed=6,
@@ -160,8 +179,12 @@ def scenarios() -> dict[str, PyBulletScenario]:
 def setup_scene(scene: Scene, scenario: PyBulletScenario) -> None:
     for obj, bowl in scenario.inside:
         at, _ = scene.pose(bowl)
-        size = scene.config.obj(obj).size
-        scene.set_pose(obj, (float(at[0]), float(at[1]), TABLE_TOP + 0.01 + size / 2 + 0.003))
+        height = scene.config.obj(obj).height
+        scene.set_pose(obj, (float(at[0]), float(at[1]), TABLE_TOP + 0.01 + height / 2 + 0.003))
+    for lid, bowl in scenario.covers:
+        at, _ = scene.pose(bowl)
+        rim = float(at[2]) + scene.config.obj(bowl).height
+        scene.set_pose(lid, (float(at[0]), float(at[1]), rim + scene.config.obj(lid).height / 2))
     scene.settle(120)
 
 
@@ -175,7 +198,7 @@ def belief_for(scene: Scene, scenario: PyBulletScenario, rng: np.random.Generato
         rect = scene.tables[o.table]
         cx, cy = rect.center
         dx, dy = rng.normal(0.0, scenario.belief_noise, 2) if scenario.belief_noise else (0, 0)
-        z = TABLE_TOP + (o.size / 2 if o.kind == "cube" else 0.0)
+        z = TABLE_TOP + (o.height / 2 if o.graspable else 0.0)
         poses[o.name] = ObjectPose(
             o.table, round(cx + o.dx + float(dx), 3), round(cy + o.dy + float(dy), 3), z
         )
@@ -183,13 +206,11 @@ def belief_for(scene: Scene, scenario: PyBulletScenario, rng: np.random.Generato
     return initial_belief(scene.config, poses, BaseConf(x, y, t))
 
 
-BOWL_RIM = 0.08  # m above a bowl's origin: an object higher rests on something in it
-
-
 def true_facts(scene: Scene) -> frozenset[Atom]:
     """PyBullet's true state as facts, for the truth judge (:func:`llmpas.worlds.api.holds`):
     ``(holding O)`` for the held object, ``(on O R)`` for an object at rest in region R (inside
-    a bowl's rim, below its top; else on the table under it)."""
+    a bowl's rim, its bottom below the rim; else on the table under it). An object over a bowl
+    higher up (on its rim, on something in it) is on neither."""
     facts: set[Atom] = set()
     for o in scene.config.objects:
         if scene.held == o.name:
@@ -202,14 +223,28 @@ def true_facts(scene: Scene) -> frozenset[Atom]:
     return frozenset(facts)
 
 
+def over(scene: Scene, name: str, bowl: str) -> bool:
+    """Whether object ``name`` is over the inside of ``bowl`` (in it, or above it)."""
+    at, _ = scene.pose(name)
+    pos, _ = scene.pose(bowl)
+    inner = scene.config.obj(bowl).size / 2 - 0.01
+    return bool(abs(at[0] - pos[0]) < inner and abs(at[1] - pos[1]) < inner)
+
+
+def bottom(scene: Scene, name: str) -> float:
+    """The z of an object's bottom (a graspable object's pose is its centre)."""
+    o = scene.config.obj(name)
+    at, _ = scene.pose(name)
+    return float(at[2]) - (o.height / 2 if o.graspable else 0.0)
+
+
 def _resting_in(scene: Scene, name: str, at: Any) -> str | None:
     for bowl in scene.config.objects:
-        if bowl.kind != "bowl" or bowl.name == name:
+        if bowl.kind != "bowl" or bowl.name == name or not over(scene, name, bowl.name):
             continue
         pos, _ = scene.pose(bowl.name)
-        inner = bowl.size / 2 - 0.01
-        if abs(at[0] - pos[0]) < inner and abs(at[1] - pos[1]) < inner:
-            return bowl.name if at[2] < pos[2] + BOWL_RIM else None
+        rim = float(pos[2]) + bowl.height - RIM_MARGIN
+        return bowl.name if bottom(scene, name) < rim else None
     for table, rect in scene.tables.items():
         if rect.contains(float(at[0]), float(at[1])):
             return table
@@ -244,7 +279,9 @@ def save_world(world: PyBulletWorld, folder: str | Path, about: dict[str, Any]) 
 __all__ = [
     "PyBulletScenario",
     "belief_for",
+    "bottom",
     "goal_holds",
+    "over",
     "resolve",
     "save_world",
     "scenarios",

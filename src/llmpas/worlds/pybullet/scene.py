@@ -1,4 +1,4 @@
-"""The PyBullet scene: a Husky with a Franka Panda on top, two tables, a bowl and cubes.
+"""The PyBullet scene: a Husky with a Franka Panda on top, two tables, a bowl, cubes and lids.
 
 With ``SceneConfig(mount="pedestal")`` the Panda stands on a fixed pedestal instead of the Husky
 (the same mount height; the pedestal takes the Husky's place, so base poses, the mast camera and
@@ -36,6 +36,12 @@ HOME_CONF = (0.0, -1.7, 0.0, -3.0, 0.0, 1.4, 0.785)
 FINGER_OPEN = 0.04
 TABLE_TOP = 0.625  # top of pybullet_data's table/table.urdf at scale 1 (z of the top surface)
 TABLE_SIZE = (1.5, 1.0)  # x, y extent of the table top at scale 1
+BOWL_HEIGHT = 0.05  # a bowl's walls, from its origin (on the table) to the rim
+LID_PLATE = 0.01  # a lid: a square plate this thick, ...
+LID_KNOB = 0.04  # ... with a square knob this wide and this high on its centre (to grasp)
+RIM_MARGIN = 0.015  # m: an object whose bottom is less far below a bowl's rim is not in it
+KINDS = ("cube", "bowl", "lid")
+GRASPABLE = ("cube", "lid")
 
 COLOURS: Mapping[str, tuple[float, float, float, float]] = MappingProxyType(
     {
@@ -111,11 +117,12 @@ class TableConfig:
 
 @dataclass(frozen=True)
 class ObjectConfig:
-    """A movable object: a cube (``size`` = edge) or a bowl (``size`` = outer width), resting on
-    ``table`` at (``dx``, ``dy``) from the table centre (world axes)."""
+    """A movable object: a cube (``size`` = edge), a bowl (``size`` = outer width) or a lid (a
+    square plate of width ``size`` with a knob to grasp it by), resting on ``table`` at (``dx``,
+    ``dy``) from the table centre (world axes)."""
 
     name: str
-    kind: str  # "cube" | "bowl"
+    kind: str  # "cube" | "bowl" | "lid"
     table: str
     dx: float
     dy: float
@@ -123,12 +130,27 @@ class ObjectConfig:
     size: float = 0.05
 
     def __post_init__(self) -> None:
-        if self.kind not in ("cube", "bowl"):
-            raise ValueError(f"object {self.name!r}: kind must be 'cube' or 'bowl'")
+        if self.kind not in KINDS:
+            raise ValueError(f"object {self.name!r}: kind must be one of {', '.join(KINDS)}")
         if self.colour not in COLOURS:
             raise ValueError(f"object {self.name!r}: unknown colour {self.colour!r}")
         if not 0.01 <= self.size <= 0.4:
             raise ValueError(f"object {self.name!r}: size {self.size} out of [0.01, 0.4]")
+        if self.kind == "lid" and self.size <= LID_KNOB:
+            raise ValueError(f"lid {self.name!r}: size {self.size} not wider than its knob")
+
+    @property
+    def height(self) -> float:
+        """From its bottom to its top."""
+        if self.kind == "cube":
+            return self.size
+        return BOWL_HEIGHT if self.kind == "bowl" else LID_PLATE + LID_KNOB
+
+    @property
+    def graspable(self) -> bool:
+        """The gripper takes it (a cube, a lid by its knob); a graspable object's pose is its
+        centre, a bowl's its bottom."""
+        return self.kind in GRASPABLE
 
 
 def _default_tables() -> tuple[TableConfig, ...]:
@@ -310,12 +332,36 @@ class Scene:
             )
             p.changeDynamics(body, -1, lateralFriction=1.2, physicsClientId=c)
             return int(body)
+        if o.kind == "lid":
+            return self._load_lid(o, (cx + o.dx, cy + o.dy), rgba)
         return self._load_bowl(o, (cx + o.dx, cy + o.dy), rgba)
+
+    def _load_lid(self, o: ObjectConfig, xy: tuple[float, float], rgba: tuple[float, ...]) -> int:
+        """A lid from primitives: a square plate and a knob on it (its origin: half its height
+        above its bottom, as a cube's)."""
+        c, w, k, mid = self.client, o.size / 2, LID_KNOB / 2, o.height / 2
+        half = [[w, w, LID_PLATE / 2], [k, k, k]]
+        pos = [[0, 0, LID_PLATE / 2 - mid], [0, 0, LID_PLATE + k - mid]]
+        col = p.createCollisionShapeArray(
+            [p.GEOM_BOX] * 2, halfExtents=half, collisionFramePositions=pos, physicsClientId=c
+        )
+        vis = p.createVisualShapeArray(
+            [p.GEOM_BOX] * 2,
+            halfExtents=half,
+            visualFramePositions=pos,
+            rgbaColors=[list(rgba)] * 2,
+            physicsClientId=c,
+        )
+        body = p.createMultiBody(
+            0.15, col, vis, [xy[0], xy[1], TABLE_TOP + mid + 1e-3], physicsClientId=c
+        )
+        p.changeDynamics(body, -1, lateralFriction=1.2, physicsClientId=c)
+        return int(body)
 
     def _load_bowl(self, o: ObjectConfig, xy: tuple[float, float], rgba: tuple[float, ...]) -> int:
         """A square bowl from primitives: a bottom plate and four walls (a compound shape)."""
         c = self.client
-        w, t, hgt = o.size / 2, 0.01, 0.05
+        w, t, hgt = o.size / 2, 0.01, BOWL_HEIGHT
         half = [[w, w, t / 2], [t / 2, w, hgt / 2], [t / 2, w, hgt / 2]]
         half += [[w, t / 2, hgt / 2], [w, t / 2, hgt / 2]]
         pos = [[0, 0, t / 2], [w - t / 2, 0, hgt / 2], [-w + t / 2, 0, hgt / 2]]
@@ -408,7 +454,7 @@ class Scene:
         """Teleport an object onto a table (scenario disturbances)."""
         cx, cy = self.tables[table].center
         o = self.config.obj(name)
-        z = TABLE_TOP + (o.size / 2 if o.kind == "cube" else 0.0) + 1e-3
+        z = TABLE_TOP + (o.height / 2 if o.graspable else 0.0) + 1e-3
         self.set_pose(name, (cx + dx, cy + dy, z))
 
     # ------------------------------------------------------------------ holding

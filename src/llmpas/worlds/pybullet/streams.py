@@ -90,8 +90,8 @@ class Geometry:
     def placements(self, obj: str, table: str) -> Iterator[ObjectPose]:
         cfg = self.config
         rect = self.scene.tables[table]
-        size = self.scene.config.obj(obj).size
-        z = TABLE_TOP + size / 2
+        o = self.scene.config.obj(obj)
+        z = TABLE_TOP + (o.height / 2 if o.graspable else 0.0)
         while True:
             x = self.rng.uniform(rect.x0 + cfg.edge_margin, rect.x1 - cfg.edge_margin)
             y = self.rng.uniform(rect.y0 + cfg.edge_margin, rect.y1 - cfg.edge_margin)
@@ -123,7 +123,7 @@ class Geometry:
         if table is None:
             return
         rect = self.scene.tables[table]
-        height = self.scene.config.obj(obj).size
+        height = self.scene.config.obj(obj).height
         sides = [s for d, s in _sides(rect, pose.x, pose.y) if d <= 0.45]
         for _ in range(cfg.kin_samples * 4):
             if not sides:
@@ -181,8 +181,8 @@ def make_streams(
         if r in bowls:
             at = locate(r)
             if at is not None:
-                size = scene.config.obj(o).size
-                yield (ObjectPose(r, at.x, at.y, TABLE_TOP + 0.01 + size / 2),)
+                height = scene.config.obj(o).height
+                yield (ObjectPose(r, at.x, at.y, TABLE_TOP + 0.01 + height / 2),)
             return
         if r not in scene.tables:
             return

@@ -181,13 +181,13 @@ class PyBulletWorld:
     def _height(self, target: ArmGoal) -> float:
         name = self.scene.held or target.obj
         known = {o.name for o in self.scene.config.objects}
-        return self.scene.config.obj(name).size if name in known else 0.05
+        return self.scene.config.obj(name).height if name in known else 0.05
 
     def _near(self, pose: ObjectPose) -> list[str]:
         """Objects within 6 cm of a grasp point (the target itself): not obstacles for the hand."""
         out = []
         for o in self.scene.config.objects:
-            if o.kind != "cube":
+            if not o.graspable:
                 continue
             at, _ = self.scene.pose(o.name)
             if math.hypot(at[0] - pose.x, at[1] - pose.y) < 0.06:
