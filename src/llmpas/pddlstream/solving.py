@@ -2,10 +2,11 @@
 PDDLStream does, ``Solution(plan, cost, certificate)`` with the user's values in the plan.
 
 PDDLStream's algorithms map onto llmpas's: ``adaptive``, ``binding`` and ``focused`` plan with
-llmpas's adaptive focused planner, ``incremental`` with its incremental one. Nothing is deferred
-to execution: every stream a plan needs is evaluated before it is returned (PDDLStream's
-``defer_fn`` only orders those evaluations). Options that mean nothing here are accepted and
-said to be ignored, once per run.
+llmpas's adaptive focused planner, ``incremental`` with its incremental one. A generator that
+yields ``None`` has nothing this call, as there: the call ends without an output. Nothing is
+deferred to execution: every stream a plan needs is evaluated before it is returned
+(PDDLStream's ``defer_fn`` only orders those evaluations). Options that mean nothing here are
+accepted and said to be ignored, once per run.
 """
 
 from __future__ import annotations
@@ -34,6 +35,12 @@ FOCUSED_ALGORITHMS = ("focused", "binding", "adaptive")
 ALGORITHMS = ("incremental", *FOCUSED_ALGORITHMS)
 DEFAULT_ALGORITHM = "adaptive"
 DEFAULT_MAX_TIME = 300.0  # seconds, when a script says max_time=INF: a safety net
+
+# A generator's ``None`` ends the call without an output, as in PDDLStream (one call is one
+# ``next``: ``None`` is an empty list of outputs); the instance may be called again later. Not
+# llmpas's default (a call goes on until ``max_time``), which lets one hopeless instance (an
+# inverse-visibility sampler that never finds a view) take the whole time.
+GENERATOR_NONE_ENDS_CALL = 1
 
 # PDDLStream's planner names -> Fast Downward searches (every heuristic with the axiom option
 # llmpas requires); other names: llmpas's default search
@@ -112,6 +119,7 @@ def solve(
         max_iterations=200 if math.isinf(max_iterations) else max(1, int(max_iterations)),
         memory_mb=4096 if math.isinf(max_memory) else max(64, int(max_memory)),
         search=search,
+        max_empty_samples=GENERATOR_NONE_ENDS_CALL,
     )
     started = _cpu()
     tr = translate(problem, stream_info, unit_costs=unit_costs, notes=ctx.notes)
