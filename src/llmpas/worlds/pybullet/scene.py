@@ -339,45 +339,43 @@ class Scene:
     def _load_lid(self, o: ObjectConfig, xy: tuple[float, float], rgba: tuple[float, ...]) -> int:
         """A lid from primitives: a square plate and a knob on it (its origin: half its height
         above its bottom, as a cube's)."""
-        c, w, k, mid = self.client, o.size / 2, LID_KNOB / 2, o.height / 2
+        w, k, mid = o.size / 2, LID_KNOB / 2, o.height / 2
         half = [[w, w, LID_PLATE / 2], [k, k, k]]
         pos = [[0, 0, LID_PLATE / 2 - mid], [0, 0, LID_PLATE + k - mid]]
-        col = p.createCollisionShapeArray(
-            [p.GEOM_BOX] * 2, halfExtents=half, collisionFramePositions=pos, physicsClientId=c
-        )
-        vis = p.createVisualShapeArray(
-            [p.GEOM_BOX] * 2,
-            halfExtents=half,
-            visualFramePositions=pos,
-            rgbaColors=[list(rgba)] * 2,
-            physicsClientId=c,
-        )
-        body = p.createMultiBody(
-            0.15, col, vis, [xy[0], xy[1], TABLE_TOP + mid + 1e-3], physicsClientId=c
-        )
-        p.changeDynamics(body, -1, lateralFriction=1.2, physicsClientId=c)
-        return int(body)
+        body = self._compound(half, pos, rgba, 0.15, (xy[0], xy[1], TABLE_TOP + mid + 1e-3))
+        p.changeDynamics(body, -1, lateralFriction=1.2, physicsClientId=self.client)
+        return body
 
     def _load_bowl(self, o: ObjectConfig, xy: tuple[float, float], rgba: tuple[float, ...]) -> int:
         """A square bowl from primitives: a bottom plate and four walls (a compound shape)."""
-        c = self.client
         w, t, hgt = o.size / 2, 0.01, BOWL_HEIGHT
         half = [[w, w, t / 2], [t / 2, w, hgt / 2], [t / 2, w, hgt / 2]]
         half += [[w, t / 2, hgt / 2], [w, t / 2, hgt / 2]]
         pos = [[0, 0, t / 2], [w - t / 2, 0, hgt / 2], [-w + t / 2, 0, hgt / 2]]
         pos += [[0, w - t / 2, hgt / 2], [0, -w + t / 2, hgt / 2]]
+        return self._compound(half, pos, rgba, 0.5, (xy[0], xy[1], TABLE_TOP + 1e-3))
+
+    def _compound(
+        self,
+        half: list[list[float]],
+        pos: list[list[float]],
+        rgba: tuple[float, ...],
+        mass: float,
+        at: tuple[float, float, float],
+    ) -> int:
+        """A body of boxes (half extents and frame positions), one colour."""
+        c, n = self.client, len(half)
         col = p.createCollisionShapeArray(
-            [p.GEOM_BOX] * 5, halfExtents=half, collisionFramePositions=pos, physicsClientId=c
+            [p.GEOM_BOX] * n, halfExtents=half, collisionFramePositions=pos, physicsClientId=c
         )
         vis = p.createVisualShapeArray(
-            [p.GEOM_BOX] * 5,
+            [p.GEOM_BOX] * n,
             halfExtents=half,
             visualFramePositions=pos,
-            rgbaColors=[list(rgba)] * 5,
+            rgbaColors=[list(rgba)] * n,
             physicsClientId=c,
         )
-        body = p.createMultiBody(0.5, col, vis, [xy[0], xy[1], TABLE_TOP + 1e-3], physicsClientId=c)
-        return int(body)
+        return int(p.createMultiBody(mass, col, vis, list(at), physicsClientId=c))
 
     # ------------------------------------------------------------------ state
 
