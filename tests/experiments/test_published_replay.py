@@ -25,6 +25,14 @@ def _rows(path: Path, methods: tuple[str, ...], tasks: tuple[str, ...]) -> dict[
     return {(r["task"], r["method"]): {k: r[k] for k in FIELDS} for r in rows}
 
 
+def _replay(method: str, tasks: tuple[str, ...], out: Path, *extra: str) -> Path:
+    """Replays the recorded answers of ``method`` on ``tasks``; the samples CSV written."""
+    argv = ["bench", "prompting", "--llm", f"replay:{CASSETTES}", "--methods", method]
+    argv += ["--no-oracle", "--no-replan", "--samples", "1", *extra, "--out", str(out)]
+    assert main([*argv, "--tasks", *tasks]) == 0
+    return out / "prompting_samples.csv"
+
+
 @pytest.mark.parametrize(
     ("method", "tasks"),
     [("flp", ("ol01-table2", "ol09-drawer4-from-start")), ("one-step", ("ol10-basket-bowl",))],
@@ -32,10 +40,7 @@ def _rows(path: Path, methods: tuple[str, ...], tasks: tuple[str, ...]) -> dict[
 def test_the_published_offline_model_runs_replay_exactly(
     method: str, tasks: tuple[str, ...], tmp_path: Path
 ) -> None:
-    argv = ["bench", "prompting", "--llm", f"replay:{CASSETTES}", "--methods", method]
-    argv += ["--no-oracle", "--no-replan", "--samples", "1", "--out", str(tmp_path)]
-    assert main([*argv, "--tasks", *tasks]) == 0
-    replayed = _rows(tmp_path / "prompting_samples.csv", (method,), tasks)
+    replayed = _rows(_replay(method, tasks, tmp_path), (method,), tasks)
     published = _rows(PUBLISHED, (method,), tasks)
     assert replayed and replayed == published
 
@@ -47,10 +52,8 @@ def test_the_papers_protocol_rows_replay_exactly(tmp_path: Path) -> None:
     """The same model in the paper's protocol (recorded in the run that measured both
     protocols): its answers replay to the same goals and verdicts."""
     tasks = ("ol01-table2", "ol05-drawer3")
-    argv = ["bench", "prompting", "--llm", f"replay:{CASSETTES}", "--methods", "one-step"]
-    argv += ["--no-oracle", "--no-replan", "--samples", "1", "--protocol", "paper"]
-    assert main([*argv, "--out", str(tmp_path), "--tasks", *tasks]) == 0
-    replayed = _rows(tmp_path / "prompting_samples.csv", ("one-step [paper]",), tasks)
+    csv_path = _replay("one-step", tasks, tmp_path, "--protocol", "paper")
+    replayed = _rows(csv_path, ("one-step [paper]",), tasks)
     published = _rows(PROTOCOLS, ("one-step [paper]",), tasks)
     assert replayed and replayed == published
     assert all(r["success"] == "False" for r in replayed.values())
@@ -71,9 +74,6 @@ def test_the_whole_suite_runs_replay_exactly(
 ) -> None:
     """A slice of the whole-suite run (recorded in two sittings, the table in
     docs/llm-part.md) replays to the same goals and verdicts."""
-    argv = ["bench", "prompting", "--llm", f"replay:{CASSETTES}", "--methods", method]
-    argv += ["--no-oracle", "--no-replan", "--samples", "1", "--out", str(tmp_path)]
-    assert main([*argv, "--tasks", *tasks]) == 0
-    replayed = _rows(tmp_path / "prompting_samples.csv", (method,), tasks)
+    replayed = _rows(_replay(method, tasks, tmp_path), (method,), tasks)
     published = _rows(SUITE, (method,), tasks)
     assert replayed and replayed == published
