@@ -179,7 +179,7 @@ def _region(scene: Scene, name: str, est: np.ndarray, bowls: dict[str, np.ndarra
     """A bowl when the object is over its inside and its bottom below the bowl's rim; else the
     table under it (an object lying on a bowl's rim, a lid on it, is not in the bowl)."""
     o = scene.config.obj(name)
-    bottom = float(est[2]) - (o.height / 2 if o.graspable else 0.0)
+    bottom = float(est[2]) - o.origin_height
     for b, at in bowls.items():
         bowl = scene.config.obj(b)
         half = bowl.size / 2

@@ -90,7 +90,7 @@ def covering(
         if o is None or d.obj in ignore or not isinstance(d.pose, ObjectPose):
             continue
         half = (o.size + width) / 2
-        bottom = d.pose.z - (o.height / 2 if o.graspable else 0.0)
+        bottom = d.pose.z - o.origin_height
         over = abs(d.pose.x - spot.x) <= half and abs(d.pose.y - spot.y) <= half
         if over and bottom > rest + RIM_MARGIN:
             return d.obj

@@ -198,7 +198,7 @@ def belief_for(scene: Scene, scenario: PyBulletScenario, rng: np.random.Generato
         rect = scene.tables[o.table]
         cx, cy = rect.center
         dx, dy = rng.normal(0.0, scenario.belief_noise, 2) if scenario.belief_noise else (0, 0)
-        z = TABLE_TOP + (o.height / 2 if o.graspable else 0.0)
+        z = TABLE_TOP + o.origin_height
         poses[o.name] = ObjectPose(
             o.table, round(cx + o.dx + float(dx), 3), round(cy + o.dy + float(dy), 3), z
         )
@@ -235,7 +235,7 @@ def bottom(scene: Scene, name: str) -> float:
     """The z of an object's bottom (a graspable object's pose is its centre)."""
     o = scene.config.obj(name)
     at, _ = scene.pose(name)
-    return float(at[2]) - (o.height / 2 if o.graspable else 0.0)
+    return float(at[2]) - o.origin_height
 
 
 def _resting_in(scene: Scene, name: str, at: Any) -> str | None:

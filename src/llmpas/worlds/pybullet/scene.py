@@ -147,6 +147,12 @@ class ObjectConfig:
         return BOWL_HEIGHT if self.kind == "bowl" else LID_PLATE + LID_KNOB
 
     @property
+    def origin_height(self) -> float:
+        """How far its pose's z is above its bottom (a graspable object's pose is its centre,
+        a bowl's its bottom)."""
+        return self.height / 2 if self.graspable else 0.0
+
+    @property
     def graspable(self) -> bool:
         """The gripper takes it (a cube, a lid by its knob); a graspable object's pose is its
         centre, a bowl's its bottom."""
@@ -452,7 +458,7 @@ class Scene:
         """Teleport an object onto a table (scenario disturbances)."""
         cx, cy = self.tables[table].center
         o = self.config.obj(name)
-        z = TABLE_TOP + (o.height / 2 if o.graspable else 0.0) + 1e-3
+        z = TABLE_TOP + o.origin_height + 1e-3
         self.set_pose(name, (cx + dx, cy + dy, z))
 
     # ------------------------------------------------------------------ holding

@@ -91,7 +91,7 @@ class Geometry:
         cfg = self.config
         rect = self.scene.tables[table]
         o = self.scene.config.obj(obj)
-        z = TABLE_TOP + (o.height / 2 if o.graspable else 0.0)
+        z = TABLE_TOP + o.origin_height
         while True:
             x = self.rng.uniform(rect.x0 + cfg.edge_margin, rect.x1 - cfg.edge_margin)
             y = self.rng.uniform(rect.y0 + cfg.edge_margin, rect.y1 - cfg.edge_margin)
