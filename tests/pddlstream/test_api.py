@@ -244,3 +244,37 @@ def test_read_pddl_reads_a_file_next_to_a_script(tmp_path) -> None:
     script = tmp_path / "run.py"
     # PDDLStream's read_pddl(this_file, pddl_filename), as cashpoint/run.py calls it
     assert utils.read_pddl(str(script), "domain.pddl") == "(define (domain d))"
+
+
+POINTS_DOMAIN = """
+(define (domain points)
+  (:requirements :strips)
+  (:predicates (Point ?p) (Next ?p ?q) (At ?p))
+  (:action step :parameters (?p ?q)
+    :precondition (and (At ?p) (Next ?p ?q))
+    :effect (and (At ?q) (not (At ?p)))))
+"""
+POINTS_STREAMS = """
+(define (stream points)
+  (:stream successor :inputs (?p) :domain (Point ?p) :outputs (?q)
+    :certified (and (Point ?q) (Next ?p ?q))))
+"""
+
+
+@pytest.mark.parametrize("goal_value", [3, 4])
+def test_a_stream_output_equal_to_an_init_value_is_that_object(goal_value) -> None:
+    """As in PDDLStream: the goal names an init value (3 or 4); the stream reaches it from 2
+    (incremental: a focused search has no optimistic plan through placeholders, as in
+    PDDLStream's focused algorithm, where an optimistic object is never an init object)."""
+    init = [("Point", 2), ("At", 2), ("Point", 3)]
+    stream_map = {"successor": from_fn(lambda p: (p + 1,))}
+    plan, cost, cert = solve(
+        PDDLProblem(POINTS_DOMAIN, {}, POINTS_STREAMS, stream_map, init, ("At", goal_value)),
+        algorithm="incremental",
+        max_time=30,
+    )
+    assert plan is not None and [a.name for a in plan] == ["step"] * (goal_value - 2)
+    assert cost == goal_value - 2
+    assert plan[-1].args[1] == goal_value
+    # one object for 3: the init's facts and the stream's are about the same one
+    assert ("next", 2, 3) in cert.all_facts and ("Point", 3) in cert.all_facts

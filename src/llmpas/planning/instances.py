@@ -131,7 +131,8 @@ class StreamStore:
         self.max_empty = max_empty
         self.facts: set[Atom] = set(problem.init)
         self.rejected: set[Atom] = set()
-        self.namer = ValueNamer(taken=problem.all_objects, prefix="s")
+        # a stream output equal to an init object's value is that object, as in PDDLStream
+        self.namer = ValueNamer(taken=problem.all_objects, prefix="s", known=problem.objects)
         self.values: dict[str, Any] = dict(problem.objects)
         self.records: dict[tuple[str, tuple[str, ...]], Record] = {}
         self.calls: Counter[str] = Counter()
