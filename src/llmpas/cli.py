@@ -270,7 +270,7 @@ def _one_line_errors(command: Handler) -> Handler:
 def _cmd_pddlstream(args: argparse.Namespace, console: Console) -> int:
     from llmpas.pddlstream.runner import run_script
 
-    run = run_script(args.script, args.args, validate_plans=not args.no_validate)
+    run = run_script(args.script, args.args, validate_plans=not args.no_validate, seed=args.seed)
     for i, c in enumerate(run.checked, 1):
         r, v = c.attempt.result, c.validation
         if r.plan is None:
@@ -321,6 +321,9 @@ def _add_pddlstream(sub: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     p.add_argument("args", nargs=argparse.REMAINDER, help="the script's own arguments")
     p.add_argument("--no-validate", action="store_true", help="do not replay the plans")
     p.add_argument("--summary", help="write what each solve call did to this JSON file")
+    p.add_argument(
+        "--seed", type=int, help="seed Python's and numpy's global random generators first"
+    )
     p.set_defaults(handler=_cmd_pddlstream)
 
 

@@ -35,6 +35,7 @@ BENCHMARKS: Mapping[str, str] = MappingProxyType(
         "validate-data": "llmpas.experiments.suite.validate:BENCHMARK",
         "planning-time": "llmpas.experiments.planning_time:BENCHMARK",
         "tamp": "llmpas.experiments.tamp:BENCHMARK",
+        "pddlstream": "llmpas.experiments.pddlstream_bench:BENCHMARK",
         "perturbation": "llmpas.experiments.perturbation:BENCHMARK",
         "prompting": "llmpas.experiments.prompting:BENCHMARK",
         "blocksworld": "llmpas.experiments.blocksworld:BENCHMARK",

@@ -115,9 +115,13 @@ def real_pddlstream() -> str | None:
     return str(spec.origin or (list(spec.submodule_search_locations or []) or ["?"])[0])
 
 
-def run_script(script: str, argv: Sequence[str] = (), validate_plans: bool = True) -> Run:
+def run_script(
+    script: str, argv: Sequence[str] = (), validate_plans: bool = True, seed: int | None = None
+) -> Run:
     """Run ``script`` with ``argv`` under this API (module docstring); never raises for what
-    the script does: the :class:`Run` says how it ended."""
+    the script does: the :class:`Run` says how it ended. ``seed``: Python's and numpy's global
+    random generators are seeded with it before the script runs (a script that seeds them
+    itself overrides it), as :func:`seed_globals` does for a real PDDLStream's run."""
     path = Path(script)
     if not path.is_file():
         raise UsageError(f"pddlstream: {script}: no such script")
@@ -142,6 +146,8 @@ def run_script(script: str, argv: Sequence[str] = (), validate_plans: bool = Tru
             f"pddlstream: a real PDDLStream is importable ({real}); llmpas does not shadow it: "
             "run the script with python, or take it off the path"
         )
+    if seed is not None:
+        seed_globals(seed)
     finder = _AliasFinder(build_modules(SolveContext(on_attempt=record)))
     sys.meta_path.insert(0, finder)
     sys.argv = [str(path), *argv]
@@ -178,6 +184,17 @@ def run_script(script: str, argv: Sequence[str] = (), validate_plans: bool = Tru
             if name.split(".")[0] == "pddlstream" or _under(sys.modules[name], root):
                 del sys.modules[name]
     return run
+
+
+def seed_globals(seed: int) -> None:
+    """Seed the global generators PDDLStream's scripts draw from (``random``, ``numpy.random``):
+    what a script run with a seed sees, here or under a real PDDLStream."""
+    import random
+
+    import numpy as np
+
+    random.seed(seed)
+    np.random.seed(seed % 2**32)
 
 
 def _missing(e: ModuleNotFoundError, script: Path) -> tuple[int, str]:
@@ -221,4 +238,12 @@ def _under(module: types.ModuleType | None, root: Path) -> bool:
     return bool(file) and _inside(str(file), root)
 
 
-__all__ = ["Checked", "Run", "ScriptFailed", "package_root", "real_pddlstream", "run_script"]
+__all__ = [
+    "Checked",
+    "Run",
+    "ScriptFailed",
+    "package_root",
+    "real_pddlstream",
+    "run_script",
+    "seed_globals",
+]
