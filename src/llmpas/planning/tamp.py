@@ -338,6 +338,7 @@ def plan_focused(run: Run) -> PlanResult:
     """The ``focused`` algorithm (see the module's documentation)."""
     store = run.store
     evaluated: _Evaluated | None = None  # the last plan whose streams were evaluated
+    skeletons: list[_Evaluated] = []  # evaluated plans that did not hold: to draw again
     run.complexity_limit = run.config.max_level
     while run.iterations < run.config.max_iterations:
         run.iterations += 1
@@ -349,15 +350,18 @@ def plan_focused(run: Run) -> PlanResult:
             return _time_limit(run)
         depth = run.depth
         closure, opt = _closure(run)
-        if evaluated is not None:
-            realized = _realize(run, evaluated, opt)
-            if realized is not None:
-                evaluated = None
-                done = run.accept(realized)
-                if done is not None:
-                    return done
-                if run.depth != depth:  # a new incumbent: search near it first
-                    closure, opt = _closure(run)
+        realized = None if evaluated is None else _realize(run, evaluated, opt)
+        if realized is None and evaluated is not None and _resamplable(evaluated):
+            skeletons = [evaluated, *skeletons][:_MAX_SKELETONS]
+        if realized is None and skeletons and run.depth is None:
+            realized = _resample(run, skeletons, opt)
+        evaluated = None
+        if realized is not None:
+            done = run.accept(realized)
+            if done is not None:
+                return done
+            if run.depth != depth:  # a new incumbent: search near it first
+                closure, opt = _closure(run)
         found = _search(run, opt)
         if isinstance(found, PlanResult):
             return found
@@ -382,7 +386,9 @@ def plan_focused(run: Run) -> PlanResult:
         # fluent streams last, step by step: their contexts need the plan's real values
         needed = [i for i in needed if i.step is None] + [i for i in needed if i.step is not None]
         real = _evaluate(run, needed, trace)
-        evaluated = _Evaluated(actions, [i for insts in per_step for i in insts], trace, real)
+        evaluated = _Evaluated(
+            actions, [i for insts in per_step for i in insts], trace, real, tuple(needed)
+        )
     return _iteration_limit(run)
 
 
@@ -500,7 +506,9 @@ def _reenable(store: StreamStore) -> bool:
     return bool(disabled) or unblocked
 
 
-def _evaluate(run: Run, needed: list[OptInstance], trace: _Trace) -> dict[int, dict[str, str]]:
+def _evaluate(
+    run: Run, needed: list[OptInstance], trace: _Trace, effort: int = 1
+) -> dict[int, dict[str, str]]:
     """Evaluate a stream plan in order; each placeholder input takes the real output of the
     producer the trace chose for it. Returns, per evaluated instance (by id), its placeholder
     outputs -> the real names.
@@ -514,7 +522,7 @@ def _evaluate(run: Run, needed: list[OptInstance], trace: _Trace) -> dict[int, d
     binder = _Binder(run, needed, trace)
     position, retries = 0, Counter[int]()
     while position < len(needed):
-        if binder.bind(position) or retries[position] >= _RETRIES:
+        if binder.bind(position) or retries[position] >= _RETRIES * effort:
             position += 1
         else:
             back = binder.backtrack(position, retries[position])
@@ -528,7 +536,7 @@ def _evaluate(run: Run, needed: list[OptInstance], trace: _Trace) -> dict[int, d
     return binder.real
 
 
-_RETRIES = 2  # new values drawn upstream of one failed instance, per stream plan
+_RETRIES = 2  # new values drawn upstream of one failed instance, per stream plan (effort 1)
 
 
 class _Binder:
@@ -709,12 +717,53 @@ class _Binder:
 
 @dataclass(frozen=True)
 class _Evaluated:
-    """A plan over placeholders whose stream plan was evaluated."""
+    """A plan over placeholders whose stream plan was evaluated (``effort``: how many times;
+    a skeleton of the queue is evaluated again with one more)."""
 
     actions: tuple[tuple[str, tuple[str, ...]], ...]
     instances: list[OptInstance]  # producers first
     trace: _Trace
     real: dict[int, dict[str, str]]  # id(evaluated instance) -> placeholder -> real name
+    needed: tuple[OptInstance, ...] = ()  # what was evaluated, in order
+    effort: int = 1
+
+
+_MAX_SKELETONS = 4  # skeletons kept to draw again (the newest first)
+_MAX_EFFORT = 4  # evaluations of one skeleton, the first included
+
+
+def _resamplable(done: _Evaluated) -> bool:
+    """Whether a plan that did not hold is kept as a skeleton: it needed streams (none of them
+    fluent: their contexts change with the values) and has effort left."""
+    return (
+        bool(done.needed) and done.effort < _MAX_EFFORT and all(i.step is None for i in done.needed)
+    )
+
+
+def _resample(run: Run, skeletons: list[_Evaluated], opt: list[OptInstance]) -> Plan | None:
+    """Evaluate the oldest kept skeleton again, with more effort (more values drawn per
+    failure): the plan over the new values if it holds (it leaves the queue), else None (it
+    goes back to the end of the queue while it has effort left). A failed binding is so
+    retried with new samples before the task is searched again, and the skeletons kept are
+    drawn in turn, one per iteration, interleaved with the searches."""
+    skeleton = skeletons.pop()
+    effort = skeleton.effort + 1
+    needed = list(skeleton.needed)
+    real = _evaluate(run, needed, skeleton.trace, effort)
+    again = dataclasses.replace(skeleton, real=real, effort=effort)
+    log.debug(
+        "iteration %d: skeleton of %d steps drawn again (effort %d): %d of %d bound",
+        run.iterations, len(skeleton.actions), effort, len(real), len(needed),
+    )  # fmt: skip
+    plan = None
+    if len(real) == len(needed):
+        # as before a search: the tests read negated, on the new values too
+        evaluate_negative_tests(run.store, _negative_streams(run))
+        _update_costs(run, opt)  # the new values' function values
+        plan = _realize(run, again, opt)
+    if plan is None and _resamplable(again):
+        skeletons.insert(0, again)
+    return plan
 
 
 def _realize(run: Run, done: _Evaluated, opt: list[OptInstance]) -> Plan | None:
