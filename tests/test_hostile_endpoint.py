@@ -149,24 +149,37 @@ def test_hostile_endpoint_through_llmpas_run(case: str, tmp_path: Path) -> None:
         assert record["status"] in ("done", "not-done")
 
 
-def test_ctrl_c_while_the_llm_answers_keeps_the_rounds_run(tmp_path: Path) -> None:
+#: How the run's process starts with SIGINT: as a terminal's foreground job (Python's handler)
+#: or as a background job of a shell without job control (``pytest &``: SIGINT ignored, and
+#: inherited so by every process the suite starts; the run then dropped the test's Ctrl-C and
+#: waited for its LLM until the hang guard).
+STARTED_WITH = {"foreground": signal.default_int_handler, "background": signal.SIG_IGN}
+
+
+@pytest.mark.parametrize("started", sorted(STARTED_WITH))
+def test_ctrl_c_while_the_llm_answers_keeps_the_rounds_run(started: str, tmp_path: Path) -> None:
     """The LLM never answers and its deadline is beyond the hang guard, so that only the
     interrupt can end the run, however slow the machine (with the default 30 s deadline a busy
-    machine let the deadline fire first)."""
+    machine let the deadline fire first). The run's SIGINT handling is set as ``started`` says,
+    whatever the test suite itself inherited."""
     out = tmp_path / "out"
     timeout = str(2 * HANG_GUARD)
     env = dict(os.environ, OPENAI_API_KEY=SECRET, NO_COLOR="1", LLMPAS_LLM_TIMEOUT=timeout)
     never = Reply(200, completion_body("(and (scanned table2_right))"), delay=4 * HANG_GUARD)
     with serve(never) as srv:
         args = ["run", "object-loss-table", "--llm", f"openai:m@{srv.url}", "--out", str(out)]
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "llmpas.cli", *args],
-            cwd=tmp_path,
-            env=env,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-        )
+        previous = signal.signal(signal.SIGINT, STARTED_WITH[started])  # the child inherits it
+        try:
+            proc = subprocess.Popen(
+                [sys.executable, "-m", "llmpas.cli", *args],
+                cwd=tmp_path,
+                env=env,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                text=True,
+            )
+        finally:
+            signal.signal(signal.SIGINT, previous)
         try:
             for _ in range(HANG_GUARD * 10):  # until the LLM is asked (a hang guard only)
                 if srv.received or proc.poll() is not None:

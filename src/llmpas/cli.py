@@ -34,7 +34,7 @@ from llmpas.errors import (
 from llmpas.files import atomic_write
 from llmpas.language.errors import BindingError, LanguageError
 from llmpas.language.problem import Problem, read_problem
-from llmpas.limits import time_limit
+from llmpas.limits import interruptible, time_limit
 from llmpas.options import MAX_EXAMPLE_SIZE, bounded_int, positive_float, positive_int, seed
 from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, registry, solve
 from llmpas.planning.quality import DEFAULT_QUALITY, QUALITIES
@@ -866,7 +866,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         logging.basicConfig(level=level, format="%(message)s", handlers=[log_handler])
         _check_outputs(args)
         handler: Handler = args.handler
-        return handler(args, console)
+        with interruptible():  # Ctrl-C ends the command, even started as a background job
+            return handler(args, console)
     except (Exception, KeyboardInterrupt) as e:
         return _report(e, verbose)
 

@@ -5,6 +5,11 @@ interrupted by :class:`TimeLimitExpired` (a ``BaseException``, so that user code
 ``Exception`` does not swallow it), and the ``with`` block raises the given error instead.
 Elsewhere (another thread, a platform without ``setitimer``, a timer already armed) it only
 runs the block.
+
+:func:`interruptible` makes Ctrl-C (``SIGINT``) raise ``KeyboardInterrupt`` in a block even when
+the process was started with ``SIGINT`` ignored: a shell without job control starts every
+background command (``cmd &``, a test suite run as ``pytest &``) that way, and Python then never
+installs its handler, so a Ctrl-C sent to the run was dropped and the run waited for its LLM.
 """
 
 from __future__ import annotations
@@ -49,4 +54,19 @@ def time_limit(seconds: float, error: Exception) -> Iterator[None]:
         signal.signal(signal.SIGALRM, previous)
 
 
-__all__ = ["TimeLimitExpired", "time_limit"]
+@contextmanager
+def interruptible() -> Iterator[None]:
+    """Run the block with ``SIGINT`` raising ``KeyboardInterrupt`` (Python's own handler),
+    whatever the process inherited; the previous handling is restored after it. Elsewhere than
+    the main thread it only runs the block."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+__all__ = ["TimeLimitExpired", "interruptible", "time_limit"]

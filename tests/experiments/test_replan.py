@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from llmpas.experiments.replan import FIRST_LOOK, REPLAN, Replan, task_literals
+from llmpas.experiments.replan import FIRST_LOOK, LABEL, REPLAN, Replan, task_literals
 from llmpas.experiments.suite import SUITE_DIR, Verdict, judge, load_task
 from llmpas.experiments.worlds import LoopConfig
 from llmpas.language.logic import Atom, Not
@@ -66,3 +66,14 @@ def test_in_the_loop_replan_resolves_a_perceived_cause_but_finds_nothing_lost() 
     j = judge(ol02, Replan(ol02.scenario.goal), LoopConfig())
     assert j.verdict is Verdict.NOT_DONE and j.first_effective is False
     assert "location unknown" in j.message
+
+
+def test_the_replan_row_says_what_it_is_and_asks_no_repairs() -> None:
+    """No LLM is asked: the records never say "the LLM", and no repair is counted (the row
+    showed repairs 1.00 and "the LLM gave no usable goals")."""
+    ol01 = load_task(SUITE_DIR / "ol01-table2.toml")
+    j = judge(ol01, Replan(ol01.scenario.goal), LoopConfig())
+    assert j.verdict is Verdict.NOT_DONE
+    assert j.message.startswith(f"{LABEL} gave no usable goals: "), j.message
+    assert "the LLM" not in j.message
+    assert j.repairs == 0 and j.answers == 1

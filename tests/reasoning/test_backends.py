@@ -289,6 +289,20 @@ def test_auto_records_once_then_replays(tmp_path: Path) -> None:
     assert inner.calls == 1
 
 
+def test_recorded_latency_is_counted_once(tmp_path: Path) -> None:
+    """--record (auto): a repeated request served from its cassette took no model time; a
+    replay counts each cassette's recorded latency the first time only (a --record run of
+    39.5 s reported 115.7 s of LLM latency)."""
+    inner = ScriptedLLM("first", "second")
+    llm = ReplayBackend(tmp_path, inner, mode="auto")
+    latencies = [llm.complete(request()).latency for _ in range(3)]
+    assert latencies == [0.25, 0.0, 0.0] and inner.calls == 1
+    again = ReplayBackend(tmp_path, ScriptedLLM("third"), mode="auto").complete(request())
+    assert again.latency == 0.0 and again.meta["recorded_latency"] == 0.25  # an earlier run's
+    replay = ReplayBackend(tmp_path)
+    assert [replay.complete(request()).latency for _ in range(3)] == [0.25, 0.0, 0.0]
+
+
 def test_record_overwrites(tmp_path: Path) -> None:
     inner = ScriptedLLM("first", "second")
     llm = ReplayBackend(tmp_path, inner, mode="record")

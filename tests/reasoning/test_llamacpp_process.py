@@ -123,6 +123,44 @@ def test_a_worker_killed_mid_answer_is_one_llm_error_line_and_the_loop_keeps_its
 
 
 @needs_tiny_model
+def test_ctrl_c_at_the_terminal_while_the_model_answers_ends_the_run_and_its_worker(
+    tmp_path: Path,
+) -> None:
+    """Ctrl-C at a terminal is SIGINT to the foreground process group. The worker has a group
+    of its own, so that the signal reaches the run only (and not a worker still starting, which
+    it killed before the worker could ignore it): the run ends interrupted and stops it."""
+    out = tmp_path / "out"
+    llm = f"llama-cpp:{tiny()}"
+    cmd = [sys.executable, "-m", "llmpas.cli", "run", "object-loss-table", "--llm", llm]
+    env = dict(os.environ, NO_COLOR="1", COLUMNS="300")
+    proc = subprocess.Popen(  # a session of its own: its group is what a terminal would signal
+        [*cmd, "--out", str(out)],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    try:
+        wait_for(lambda: workers(proc.pid) or proc.poll() is not None, "the worker")
+        [worker] = workers(proc.pid)
+        assert os.getpgid(worker) != os.getpgid(proc.pid)  # out of reach of the terminal
+        wait_for(lambda: (out / "loop.json").exists() or proc.poll() is not None, "round 0")
+        idle = cpu_seconds(worker)
+        wait_for(lambda: cpu_seconds(worker) > idle + 0.2 or proc.poll() is not None, "answer")
+        assert proc.poll() is None, "the run ended before the model was asked"
+        os.killpg(proc.pid, signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=GUARD)
+    finally:
+        proc.kill()
+        proc.wait()
+    assert proc.returncode == ExitCode.INTERRUPTED, stderr
+    assert "Traceback" not in stdout + stderr and "interrupted" in stderr
+    assert json.loads((out / "loop.json").read_text(encoding="utf-8"))["status"] == "interrupted"
+    wait_for(lambda: gone(worker), "the worker to stop", 30)
+
+
+@needs_tiny_model
 def test_the_backend_answers_again_after_its_worker_died() -> None:
     with LlamaCppBackend(tiny(), n_ctx=2048) as llm:
         first = llm.pid

@@ -93,7 +93,7 @@ log = logging.getLogger(__name__)
 ORACLE = "oracle"
 UPPER_BOUND = "upper bound"
 BASELINE = "no reasoning"
-REPLAN_VERSION = "replan-1"  # part of the replan row's cache keys: bump when its answers change
+REPLAN_VERSION = "replan-2"  # part of the replan row's cache keys: bump when its answers change
 
 
 @dataclass(frozen=True)

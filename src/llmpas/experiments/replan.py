@@ -4,7 +4,9 @@ An LLM backend that answers every goal request with the task goal itself, restat
 anomaly, it proposes "do the task again". Run in the same closed loop with the same budget as
 every method, it measures what replanning the task from the robot's belief achieves on its own;
 a method's *lift* over it is what its reasoning adds. It reads nothing but the task goal it was
-built with (never the world's truth, never the prompt).
+built with (never the world's truth, never the prompt). It is a
+:class:`~llmpas.reasoning.llm.Baseline`: the loop's records name it (never "the LLM") and the loop
+asks it for no repairs (a restatement does not change with the errors shown).
 
 The answer's form follows the prompting method the loop uses (``flp``, like the oracle row, by
 default): a PDDL conjunction for the goal methods, one action call per literal for
@@ -24,6 +26,7 @@ from llmpas.reasoning.tables import Call
 
 REPLAN = "replan"
 FIRST_LOOK = "No reasoning: do the task again from what the robot now believes."
+LABEL = "replan (no LLM: the task restated)"  # what answers, in the loop's records
 
 
 def task_literals(goal: str) -> tuple[Atom | Not, ...]:
@@ -52,6 +55,7 @@ class Replan:
     """Answers every goal request with the task goal restated (``first-look``: a fixed line)."""
 
     name = REPLAN
+    label = LABEL
 
     def __init__(self, task: str, method: str = "flp") -> None:
         self.literals = task_literals(task)
@@ -92,4 +96,4 @@ class Replan:
         return "\n".join(lines) or "pass"
 
 
-__all__ = ["FIRST_LOOK", "REPLAN", "Replan", "task_literals"]
+__all__ = ["FIRST_LOOK", "LABEL", "REPLAN", "Replan", "task_literals"]

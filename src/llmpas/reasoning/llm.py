@@ -127,3 +127,15 @@ class LLM(Protocol):
     name: str
 
     def complete(self, request: Request) -> Response: ...
+
+
+@runtime_checkable
+class Baseline(Protocol):
+    """An answerer in the LLM's place that is no LLM (the ``replan`` baseline restates the
+    task): ``label`` says what it is wherever the records would say "the LLM". The loop asks it
+    for no repairs (its answer does not depend on the errors shown)."""
+
+    name: str
+    label: str
+
+    def complete(self, request: Request) -> Response: ...

@@ -29,7 +29,7 @@ from llmpas.language.semantics import Semantics
 from llmpas.planning import Plan, PlannerConfig, PlanResult, solve
 from llmpas.reasoning.assists import Assists
 from llmpas.reasoning.goals import Literal
-from llmpas.reasoning.llm import LLM, LLMError, Request, Response
+from llmpas.reasoning.llm import LLM, Baseline, LLMError, Request, Response
 from llmpas.reasoning.methods import MethodConfig, propose
 from llmpas.reasoning.prompts import situation
 from llmpas.system.checks import GoalChecker
@@ -131,6 +131,7 @@ class _Loop:
     assists: Assists = field(default_factory=Assists)
     success: str | None = None  # the task's intent (None: the task goal)
     stages: Stages = field(default_factory=Stages)  # recovery goals reached and still to reach
+    who: str = "the LLM"  # what answers in the records ("the LLM", or a baseline's label)
 
     def __post_init__(self) -> None:
         if not self.assists.repair:
@@ -221,7 +222,7 @@ class _Loop:
             self.record()
             if not proposal.ok:
                 errors = "; ".join(proposal.parse.errors)
-                return self.end(False, "the LLM gave no usable goals: " + errors)
+                return self.end(False, f"{self.who} gave no usable goals: {errors}")
             # goals whose execution fails are not blamed: only achieved ones count as tried
             self.pending = frozenset(map(str, proposal.goals))
             goal, text = self.next_goal(list(proposal.goals))
@@ -475,6 +476,9 @@ def close_loop(
     )
     try:
         backend = factory(session)
+        if isinstance(backend, Baseline):  # no LLM: said so, and no repairs asked of it
+            loop.who = backend.label
+            loop.method = replace(loop.method, repairs=0)
         if settings.deadline is not None:
             backend = _ByDeadline(backend, loop.remaining)
         result = loop.run(backend)

@@ -182,6 +182,10 @@ class _Worker:
                 stdin=subprocess.DEVNULL,
                 stdout=subprocess.DEVNULL,  # native code may print: never on the protocol
                 stderr=self._stderr,
+                # a process group of its own: a terminal's Ctrl-C reaches the caller only, also
+                # while the worker starts (before it ignores SIGINT, Ctrl-C killed it: an LLM
+                # error instead of an interrupted run); the caller stops it
+                process_group=0,
             )
         except OSError as err:
             ours.close()

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import logging
 import os
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Literal, get_args
 
@@ -22,6 +23,11 @@ class ReplayBackend:
 
     ``replay``: only cassettes, a missing one is an :class:`LLMError`; ``record``: always ask
     ``inner`` and (over)write the cassette; ``auto``: replay when recorded, otherwise record.
+
+    Latency is counted once. ``replay``: a cassette's recorded latency (what the recorded run
+    waited), the first time this backend serves it; ``auto``: only what this run waited for
+    ``inner`` (a cassette served, recorded earlier or earlier in this run, took no model time).
+    Any other serving has latency 0 and the recorded one in ``meta["recorded_latency"]``.
     """
 
     def __init__(
@@ -35,18 +41,26 @@ class ReplayBackend:
         self.inner = inner
         self.mode: ReplayMode = mode
         self.name = f"replay({inner.name})" if inner is not None else "replay"
+        self._counted: set[str] = set()  # keys whose latency was counted
 
     def path_for(self, request: Request) -> Path:
         return self.folder / f"{request.key()}.json"
 
     def complete(self, request: Request) -> Response:
         path = self.path_for(request)
+        key = path.stem
         if self.mode != "record" and path.is_file():
-            return self._load(path)
+            response = self._load(path)
+            if self.mode == "replay" and key not in self._counted:
+                self._counted.add(key)
+                return response
+            meta = {**response.meta, "recorded_latency": response.latency}
+            return replace(response, latency=0.0, meta=meta)
         if self.mode == "replay" or self.inner is None:
             raise self._missing(request)
         response = self.inner.complete(request)
         self._save(path, request, response)
+        self._counted.add(key)
         return response
 
     def _missing(self, request: Request) -> LLMError:
