@@ -3,13 +3,15 @@
 It serves, from the simulator (:class:`~llmpas.worlds.pybullet.world.PyBulletWorld`, seeded as
 in-process):
 
-| name | interface | what |
-|---|---|---|
-| ``navigate_to_pose`` | ``nav2_msgs/action/NavigateToPose`` | drive the base (plans a collision-free path) |
-| ``arm_controller/follow_joint_trajectory`` | ``control_msgs/action/FollowJointTrajectory`` | move the arm to the trajectory's last point (collision-free) |
-| ``llmpas/skill`` | ``llmpas_interfaces/action/Skill`` | move_arm to a grasp, grasp, release, open, close, process |
-| ``llmpas/look`` | ``llmpas_interfaces/action/Look`` | mast, arm or wrist camera: detections |
-| ``llmpas/scene_state`` | ``llmpas_interfaces/srv/GetSceneState`` | the planning scene (every body, the held object, odometry) |
+- ``navigate_to_pose`` (``nav2_msgs/action/NavigateToPose``): drive the base (a collision-free
+  path is planned on the robot);
+- ``arm_controller/follow_joint_trajectory`` (``control_msgs/action/FollowJointTrajectory``):
+  the arm to the trajectory's last point (collision-free);
+- ``llmpas/skill`` (``llmpas_interfaces/action/Skill``): move_arm to a grasp, grasp, release,
+  open, close, process;
+- ``llmpas/look`` (``llmpas_interfaces/action/Look``): the mast, arm or wrist camera's detections;
+- ``llmpas/scene_state`` (``llmpas_interfaces/srv/GetSceneState``): the planning scene (every
+  body, the held object, odometry);
 
 and publishes ``odom`` (``nav_msgs/Odometry``, the believed pose), ``joint_states``,
 ``detections`` and ``scene_markers`` (``visualization_msgs/MarkerArray``) after every goal.

@@ -14,7 +14,7 @@ from typing import Any
 
 SEPARATOR = "=" * 80
 PRIMITIVES = frozenset(
-    [
+    {
         "bool",
         "byte",
         "char",
@@ -30,7 +30,7 @@ PRIMITIVES = frozenset(
         "uint64",
         "string",
         "wstring",
-    ]
+    }
 )
 
 

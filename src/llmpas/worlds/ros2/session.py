@@ -88,14 +88,15 @@ class Ros2Session(PyBulletSession):
         t0 = time.perf_counter()
         self.scene = Scene(client, scenario.scene)  # the planning scene
         self.bag = McapRecorder(folder / BAG)
-        self.world = RosRobot(context, self.scene, plugin.timeouts, self._record_goal)  # type: ignore[assignment]
+        self.robot = RosRobot(context, self.scene, plugin.timeouts, self._record_goal)
+        self.world = self.robot  # type: ignore[assignment]  # what PyBulletSession reads
         self.subscriptions = [self._subscribe(t, *m) for t, m in TOPICS.items()]
-        self.world.wait_for_servers()
+        self.robot.wait_for_servers()
         self.timings["connect"] = time.perf_counter() - t0
         belief = belief_for(self.scene, scenario, np.random.default_rng([self.seed, 3]))
         self.geometry = Geometry(self.scene, np.random.default_rng([self.seed, 1]))
         self.context = Context(
-            self.world, self.world, belief, np.random.default_rng([self.seed, 2])
+            self.robot, self.robot, belief, np.random.default_rng([self.seed, 2])
         )
         self.domain = load_domain()
         self.vocabulary = vocabulary(scenario.scene)
@@ -106,7 +107,7 @@ class Ros2Session(PyBulletSession):
         self.anomalies = 0
         self._recorder: Any = self.context.recorder
         self._seen = 0
-        self.world.clock = lambda: (self.rounds, len(self.context.recorder.events))
+        self.robot.clock = lambda: (self.rounds, len(self.context.recorder.events))
 
     # ------------------------------------------------------------------ recording
 
@@ -123,7 +124,7 @@ class Ros2Session(PyBulletSession):
             durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
         )
         full = f"{module.split('.')[0]}/msg/{name}"
-        return self.world.node.create_subscription(
+        return self.robot.node.create_subscription(
             kind, topic, lambda msg: self.bag.write(f"/{topic}", full, msg), qos
         )
 
@@ -175,7 +176,7 @@ class Ros2Session(PyBulletSession):
             "scenario": self.name,
             "achieved": self.achieved(),
             "timings": self.timings,
-            "goals": self.world.goals,
+            "goals": self.robot.goals,
             "anomalies": self.anomalies,
             "bag": BAG,
             "channels": {
@@ -236,7 +237,7 @@ class Ros2Plugin:
                 yield session
             finally:
                 session.bag.close()
-                session.world.shutdown()
+                session.robot.shutdown()
 
 
 @contextmanager
