@@ -140,7 +140,8 @@ class RosRobot:
         """Send ``goal`` to ``/name`` and wait for its end, polling (the spinner thread takes
         feedback). (None, result) when it succeeded; (failure, result or None) otherwise."""
         client = self.clients[name]
-        if name in self.lost and not client.server_is_ready():
+        if self.lost and not client.server_is_ready():  # the robot went away: fail at once
+            self.lost.add(name)
             return SkillResult.failure(f"the robot's /{name} server is gone", reason="lost"), None
         if not client.wait_for_server(timeout_sec=self.timeouts.accept):
             self.lost.add(name)

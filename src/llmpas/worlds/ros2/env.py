@@ -58,14 +58,15 @@ class RosEnv:
 
 def from_environment(log_dir: Path, domain: int | None = None) -> RosEnv:
     """The isolation a user asked for: ``ROS_DOMAIN_ID`` (else ``domain``, else
-    :data:`DEFAULT_DOMAIN`) and ``LLMPAS_ROS_DISCOVERY`` (else LOCALHOST)."""
+    :data:`DEFAULT_DOMAIN`), ``LLMPAS_ROS_DISCOVERY`` (else LOCALHOST) and ``ROS_LOG_DIR``
+    (else ``log_dir``)."""
     raw = os.environ.get("ROS_DOMAIN_ID", "")
     try:
         chosen = int(raw) if raw.strip() else (DEFAULT_DOMAIN if domain is None else domain)
     except ValueError:
         raise ValueError(f"ROS_DOMAIN_ID={raw!r}: not a number") from None
     discovery = os.environ.get(DISCOVERY_VAR, "LOCALHOST").strip().upper() or "LOCALHOST"
-    return RosEnv(chosen, log_dir, discovery)
+    return RosEnv(chosen, Path(os.environ.get("ROS_LOG_DIR") or log_dir), discovery)
 
 
 def random_domain(rng: random.Random | None = None) -> int:

@@ -355,9 +355,7 @@ def _text(result: SkillResult) -> str:
 def serve(
     scenario: str, seed: int | None, env: RosEnv, faults: Faults, ready: Path | None = None
 ) -> None:
-    """Build the simulator and serve it until SIGINT/SIGTERM."""
-    import signal
-
+    """Build the simulator and serve it until SIGINT/SIGTERM (rclpy's handlers end the spin)."""
     env.apply()
     import rclpy
     from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
@@ -366,12 +364,12 @@ def serve(
     context = rclpy.Context()
     rclpy.init(context=context, domain_id=env.domain, signal_handler_options=None)
     with open_client(False) as client:
-        world = build_world(chosen, chosen.seed if seed is None else seed, client)
+        seed = chosen.seed if seed is None else seed
+        world = build_world(chosen, seed, client)
         node = rclpy.create_node("llmpas_pybullet_robot", context=context)
         robot = RobotNode(node, world, faults)
         executor = MultiThreadedExecutor(num_threads=4, context=context)
         executor.add_node(node)
-        signal.signal(signal.SIGTERM, lambda *_: context.try_shutdown())
         log.info(
             "robot %s (seed %s) on ROS_DOMAIN_ID=%d, discovery %s: serving %s",
             chosen.name,
@@ -405,7 +403,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for fault in ("reject", "abort", "stall"):
         parser.add_argument(f"--{fault}", action="append", default=[], metavar="KIND")
     args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s robot: %(message)s")
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s robot: %(message)s", force=True)
     log_dir = Path(args.log_dir or tempfile.mkdtemp(prefix="llmpas-robot-"))
     try:
         env = from_environment(log_dir / "ros", args.domain)

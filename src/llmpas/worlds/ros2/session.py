@@ -24,7 +24,7 @@ import tempfile
 import time
 from collections.abc import Iterator
 from contextlib import ExitStack, contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -51,6 +51,7 @@ from llmpas.worlds.ros2.record import McapRecorder, type_name
 log = logging.getLogger(__name__)
 
 ROBOT_VAR = "LLMPAS_ROS_ROBOT"  # "external": connect to a running robot, start none
+TIMEOUT_VAR = "LLMPAS_ROS_DISCOVER_TIMEOUT"  # seconds to find every server (default 20)
 BAG = "ros.mcap"
 TOPICS = {  # recorded topics: name -> (package, message)
     "odom": ("nav_msgs.msg", "Odometry"),
@@ -193,6 +194,12 @@ class Ros2Session(PyBulletSession):
         if self.bag.path.resolve() != target.resolve():
             shutil.copyfile(self.bag.path, target)
         written.append(target)
+        for name in ("robot.log", "log"):  # the robot node's output and the ROS logs
+            source = self.folder / name
+            if source.is_file():
+                written.append(Path(shutil.copyfile(source, folder / f"ros-{name}")))
+            elif source.is_dir():
+                shutil.copytree(source, folder / "ros-log", dirs_exist_ok=True)
         return written
 
 
@@ -213,6 +220,13 @@ class Ros2Plugin:
     def open(self, scenario: Any, options: RunOptions) -> Iterator[Ros2Session]:
         chosen = resolve(scenario)
         seed = chosen.seed if options.seed is None else options.seed
+        plugin = self
+        wait = os.environ.get(TIMEOUT_VAR, "").strip()
+        if wait:
+            try:
+                plugin = replace(self, timeouts=replace(self.timeouts, discover=float(wait)))
+            except ValueError:
+                raise RosError(f"{TIMEOUT_VAR}={wait!r}: not a number of seconds") from None
         folder = Path(tempfile.mkdtemp(prefix="llmpas-ros2-"))
         external = os.environ.get(ROBOT_VAR, "").strip().lower() == "external"
         try:
@@ -229,7 +243,7 @@ class Ros2Plugin:
             context = stack.enter_context(ros_context(env))
             client = stack.enter_context(open_client(False))
             try:
-                session = Ros2Session(chosen, self, options, client, context, folder)
+                session = Ros2Session(chosen, plugin, options, client, context, folder)
             except RobotUnavailableError as e:
                 hint = "" if external else " (the robot node did not come up)"
                 raise RosError(f"{e}{hint}; ROS_DOMAIN_ID={env.domain}") from None
