@@ -188,7 +188,15 @@ class Ros2Session(PyBulletSession):
             "joint states, detections and scene markers, and each anomaly as "
             "diagnostic_msgs/DiagnosticArray on /diagnostics",
         }
-        written = [atomic_write(folder / "ros.json", json.dumps(about, indent=2))]
+        artifact = {
+            "file": BAG,
+            "title": "ROS 2 recording (rosbag2 MCAP: Foxglove, ros2 bag)",
+            "holds": about["holds"],
+        }
+        written = [
+            atomic_write(folder / "ros.json", json.dumps(about, indent=2)),
+            atomic_write(folder / "artifacts.json", json.dumps([artifact], indent=2)),
+        ]
         self.bag.close()
         target = folder / BAG
         if self.bag.path.resolve() != target.resolve():
