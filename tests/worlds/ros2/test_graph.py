@@ -143,6 +143,37 @@ def test_killed_robot_node_is_a_failure_and_loop_json_keeps_every_round(
     assert fresh_out.strip().splitlines()[-1].startswith("task done")
 
 
+def test_ctrl_c_cancels_the_goal_on_the_robot(tmp_path: Path, start_robot) -> None:
+    domain = random_domain()
+    robot = start_robot(domain, "--stall", "grasp")
+    run = llmpas(
+        [
+            "run",
+            "object-loss",
+            "--world",
+            "ros2",
+            "--llm",
+            "oracle",
+            "--out",
+            str(tmp_path / "run"),
+        ],
+        domain,
+        tmp_path / "client-log",
+        LLMPAS_ROS_ROBOT="external",
+    )
+    try:
+        assert robot.wait_for("stalling a grasp goal", 600), robot.text()[-2000:]
+        run.send_signal(signal.SIGINT)
+        _, err = run.communicate(timeout=120)
+    finally:
+        if run.poll() is None:
+            run.kill()
+    assert robot.wait_for("the grasp goal was cancelled by the client", 30), robot.text()[-2000:]
+    assert run.returncode == 130, err[-2000:]
+    assert "Traceback" not in err
+    assert robot.proc.poll() is None  # the robot is still up, its goal cancelled
+
+
 def test_rejected_goal_is_a_skill_failure_the_subtree_explores(tmp_path: Path, start_robot) -> None:
     domain = random_domain()
     start_robot(domain, "--reject", "navigate_to_pose")

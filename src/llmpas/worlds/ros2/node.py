@@ -153,6 +153,7 @@ class RobotNode:
         log.warning("stalling a %s goal until it is cancelled (fault)", kind)
         while not handle.is_cancel_requested:
             time.sleep(0.02)
+        log.warning("the %s goal was cancelled by the client", kind)
         return True
 
     # ------------------------------------------------------------------ execution

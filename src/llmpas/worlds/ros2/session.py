@@ -267,9 +267,13 @@ def ros_context(env: RosEnv) -> Iterator[Any]:
     """An rclpy context of this process, isolated by ``env`` (variables set first)."""
     env.apply()
     import rclpy
+    from rclpy.signals import SignalHandlerOptions
 
     context = rclpy.Context()
-    rclpy.init(context=context, domain_id=env.domain)
+    # Ctrl-C stays a KeyboardInterrupt: the robot cancels its goal before the context ends
+    rclpy.init(
+        context=context, domain_id=env.domain, signal_handler_options=SignalHandlerOptions.NO
+    )
     try:
         yield context
     finally:
