@@ -110,6 +110,26 @@ def test_wrong_types_in_loop_json_still_give_a_page(tmp_path: Path) -> None:
     assert page.count('class="card round"') == 4 and "passwd" not in page
 
 
+def test_files_a_world_lists_in_artifacts_json_are_linked_with_what_they_hold(
+    tmp_path: Path,
+) -> None:
+    (tmp_path / "loop.json").write_text(json.dumps({"scenario": "s", "rounds": []}))
+    (tmp_path / "ros.mcap").write_bytes(b"\x89MCAP0\r\n")
+    listed = [
+        {"file": "ros.mcap", "title": "a recording", "holds": "the goals <and> anomalies"},
+        {"file": "../../etc/passwd", "title": "out", "holds": "x"},
+        {"file": "missing.mcap", "title": "gone", "holds": "x"},
+        "junk",
+    ]
+    (tmp_path / "artifacts.json").write_text(json.dumps(listed))
+    run = read_run(tmp_path)
+    assert [a.file for a in run.artifacts] == ["ros.mcap"]
+    page = build_report(tmp_path).path.read_text()
+    assert '<a href="ros.mcap">ros.mcap</a>' in page
+    assert "the goals &lt;and&gt; anomalies" in page
+    assert "passwd" not in page and "missing.mcap" not in page
+
+
 @pytest.mark.parametrize(
     ("content", "expected"),
     [

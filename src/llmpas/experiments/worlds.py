@@ -29,6 +29,7 @@ WORLDS = MappingProxyType(
         "household": "llmpas.worlds.household.plugin:WORLD",
         "pybullet": "llmpas.worlds.pybullet.plugin:WORLD",
         "tabletop": "llmpas.worlds.tabletop:WORLD",
+        "ros2": "llmpas.worlds.ros2.session:WORLD",
     }
 )
 ORACLES = MappingProxyType(
@@ -36,6 +37,7 @@ ORACLES = MappingProxyType(
         "household": "llmpas.experiments.oracles.household:oracle",
         "pybullet": "llmpas.experiments.oracles.pybullet:oracle",
         "tabletop": "llmpas.experiments.oracles.tabletop:oracle",
+        "ros2": "llmpas.experiments.oracles.pybullet:oracle",
     }
 )
 ORACLE = "oracle"

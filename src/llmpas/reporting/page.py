@@ -582,6 +582,12 @@ def _files(run: RunRecord, images: Images) -> Markup:
     items = [tag("li", tag("a", rel, href=href(rel))) for rel in run.raw]
     log_lines = [tag("li", line) for line in run.world_log]
     parts = [tag("h2", "Raw files"), tag("ul", *items, class_="files")]
+    if run.artifacts:
+        recorded = [
+            tag("li", tag("a", a.file, href=href(a.file)), f" ({a.title}): {a.holds}")
+            for a in run.artifacts
+        ]
+        parts += [tag("h3", "recordings"), tag("ul", *recorded, class_="files")]
     if images.figures > MAX_IMAGES:
         left = images.figures - MAX_IMAGES
         parts.append(tag("p", f"{left} more images are only in the folder.", class_="note"))

@@ -1,7 +1,8 @@
 """What a run folder holds, read back for the web report: ``loop.json`` (the closed loop's
 rounds), each round's episode (``round-I/episode.json``, or the one embedded in ``loop.json``),
 the CSubBT XML, ``run.json`` (PyBullet timings), ``media.json`` (which snapshot or camera image
-was made at which event of which episode), ``about.json`` (the command that made the run).
+was made at which event of which episode), ``about.json`` (the command that made the run),
+``artifacts.json`` (other files a world wrote: a recording, what it holds).
 
 Everything is optional and read tolerantly: a field of the wrong type counts as missing, so a
 folder written by an older or newer version (or edited by hand) still gives a page. A file that
@@ -176,6 +177,15 @@ class Round:
 
 
 @dataclass(frozen=True)
+class Artifact:
+    """A file a world wrote into the run folder (a recording), listed in ``artifacts.json``."""
+
+    file: str  # relative to the run folder
+    title: str
+    holds: str  # what is in it, in a sentence
+
+
+@dataclass(frozen=True)
 class RunRecord:
     folder: Path
     scenario: str
@@ -190,6 +200,7 @@ class RunRecord:
     gif: str | None
     raw: tuple[str, ...]
     world_log: tuple[str, ...] = field(default=())
+    artifacts: tuple[Artifact, ...] = field(default=())
 
     @property
     def task(self) -> str:
@@ -342,6 +353,21 @@ def _raw(folder: Path) -> tuple[str, ...]:
     return tuple(sorted(_rel(folder, p) for p in found))
 
 
+def _artifacts(folder: Path) -> tuple[Artifact, ...]:
+    """The files ``artifacts.json`` lists (``[{"file", "title", "holds"}]``) that exist in the
+    folder; anything else in it is ignored."""
+    listed = load_json(folder / "artifacts.json")
+    out = []
+    for a in listed if isinstance(listed, list) else []:
+        name = get_str(a, "file") if isinstance(a, Mapping) else ""
+        path = folder / name
+        if name and _inside(folder, path) and path.is_file():
+            out.append(
+                Artifact(_rel(folder, path), get_str(a, "title") or name, get_str(a, "holds"))
+            )
+    return tuple(out)
+
+
 def read_run(folder: str | Path) -> RunRecord:
     """Read a run folder (``llmpas run/execute ... --out``) for the report."""
     folder = Path(folder)
@@ -384,7 +410,17 @@ def read_run(folder: str | Path) -> RunRecord:
         gif="episode.gif" if _inside(folder, gif) else None,
         raw=_raw(folder),
         world_log=strings(get_list(run, "world_log")),
+        artifacts=_artifacts(folder),
     )
 
 
-__all__ = ["Exchange", "Media", "Reasoning", "ReportError", "Round", "RunRecord", "read_run"]
+__all__ = [
+    "Artifact",
+    "Exchange",
+    "Media",
+    "Reasoning",
+    "ReportError",
+    "Round",
+    "RunRecord",
+    "read_run",
+]

@@ -1,0 +1,84 @@
+"""How a ROS 2 process of llmpas is isolated: discovery range, domain and log folder.
+
+Nothing may leave the machine unless a user says so: every node llmpas starts runs with
+``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` (``ROS_LOCALHOST_ONLY`` is ignored by current ROS 2),
+a ``ROS_DOMAIN_ID`` of its own and ``ROS_LOG_DIR`` inside the run folder. A user who points
+llmpas at a real robot sets ``LLMPAS_ROS_DISCOVERY`` (``SUBNET``, say) and ``ROS_DOMAIN_ID``
+deliberately (docs/ros.md).
+"""
+
+from __future__ import annotations
+
+import os
+import random
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+RANGES = ("LOCALHOST", "SUBNET", "OFF", "SYSTEM_DEFAULT")
+DEFAULT_DOMAIN = 57  # the domain of a robot node started by hand (llmpas robot ...)
+DISCOVERY_VAR = "LLMPAS_ROS_DISCOVERY"  # the one option that lets discovery off localhost
+
+
+@dataclass(frozen=True)
+class RosEnv:
+    """The isolation of one ROS 2 process."""
+
+    domain: int
+    log_dir: Path
+    discovery: str = "LOCALHOST"
+
+    def __post_init__(self) -> None:
+        if not 0 <= self.domain <= 101:  # 0-101: the ports of every domain stay valid
+            raise ValueError(f"ROS_DOMAIN_ID must be in 0..101, got {self.domain}")
+        if self.discovery not in RANGES:
+            raise ValueError(f"{DISCOVERY_VAR} must be one of {', '.join(RANGES)}")
+
+    def variables(self) -> dict[str, str]:
+        return {
+            "ROS_AUTOMATIC_DISCOVERY_RANGE": self.discovery,
+            "ROS_DOMAIN_ID": str(self.domain),
+            "ROS_LOG_DIR": str(self.log_dir),
+            "RMW_IMPLEMENTATION": "rmw_fastrtps_cpp",
+        }
+
+    def environ(self, base: Mapping[str, str] | None = None) -> dict[str, str]:
+        """A child process's whole environment (the ROS wheels' bootstrap variables kept)."""
+        env = dict(os.environ if base is None else base)
+        env.pop("ROS_LOCALHOST_ONLY", None)
+        env.update(self.variables())
+        return env
+
+    def apply(self) -> None:
+        """Set this process's variables (before rclpy starts: it reads them once)."""
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        os.environ.pop("ROS_LOCALHOST_ONLY", None)
+        os.environ.update(self.variables())
+
+
+def from_environment(log_dir: Path, domain: int | None = None) -> RosEnv:
+    """The isolation a user asked for: ``ROS_DOMAIN_ID`` (else ``domain``, else
+    :data:`DEFAULT_DOMAIN`), ``LLMPAS_ROS_DISCOVERY`` (else LOCALHOST) and ``ROS_LOG_DIR``
+    (else ``log_dir``)."""
+    raw = os.environ.get("ROS_DOMAIN_ID", "")
+    try:
+        chosen = int(raw) if raw.strip() else (DEFAULT_DOMAIN if domain is None else domain)
+    except ValueError:
+        raise ValueError(f"ROS_DOMAIN_ID={raw!r}: not a number") from None
+    discovery = os.environ.get(DISCOVERY_VAR, "LOCALHOST").strip().upper() or "LOCALHOST"
+    return RosEnv(chosen, Path(os.environ.get("ROS_LOG_DIR") or log_dir), discovery)
+
+
+def random_domain(rng: random.Random | None = None) -> int:
+    """A domain for one run or test (1..101; 0 is everyone's default)."""
+    return (rng or random.SystemRandom()).randint(1, 101)
+
+
+__all__ = [
+    "DEFAULT_DOMAIN",
+    "DISCOVERY_VAR",
+    "RANGES",
+    "RosEnv",
+    "from_environment",
+    "random_domain",
+]

@@ -1,0 +1,435 @@
+"""The PyBullet Husky + Panda as a ROS 2 robot, in a process of its own.
+
+It serves, from the simulator (:class:`~llmpas.worlds.pybullet.world.PyBulletWorld`, seeded as
+in-process):
+
+- ``navigate_to_pose`` (``nav2_msgs/action/NavigateToPose``): drive the base (a collision-free
+  path is planned on the robot);
+- ``arm_controller/follow_joint_trajectory`` (``control_msgs/action/FollowJointTrajectory``):
+  the arm to the trajectory's last point (collision-free);
+- ``llmpas/skill`` (``llmpas_interfaces/action/Skill``): move_arm to a grasp, grasp, release,
+  open, close, process;
+- ``llmpas/look`` (``llmpas_interfaces/action/Look``): the mast, arm or wrist camera's detections;
+- ``llmpas/scene_state`` (``llmpas_interfaces/srv/GetSceneState``): the planning scene (every
+  body, the held object, odometry);
+
+and publishes ``odom`` (``nav_msgs/Odometry``, the believed pose), ``joint_states``,
+``detections`` and ``scene_markers`` (``visualization_msgs/MarkerArray``) after every goal.
+
+Faults for tests (``--reject``, ``--abort``, ``--stall`` a kind: ``navigate_to_pose``,
+``follow_joint_trajectory``, ``look`` or a skill's name) make a server reject a goal, abort it,
+or hold it until it is cancelled.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from llmpas.execution.world import Detection, Observation, SkillResult
+from llmpas.worlds.pybullet.run import PyBulletScenario, resolve, setup_scene
+from llmpas.worlds.pybullet.scene import Scene, open_client
+from llmpas.worlds.pybullet.values import ArmGoal, Grasp
+from llmpas.worlds.pybullet.world import PyBulletWorld
+from llmpas.worlds.ros2 import convert
+from llmpas.worlds.ros2.env import RosEnv, from_environment
+
+log = logging.getLogger(__name__)
+
+NAV = "navigate_to_pose"
+FJT = "arm_controller/follow_joint_trajectory"
+SKILL = "llmpas/skill"
+LOOK = "llmpas/look"
+STATE = "llmpas/scene_state"
+ACTIONS = (NAV, FJT, SKILL, LOOK)
+
+
+@dataclass(frozen=True)
+class Faults:
+    """Goals of these kinds are rejected, aborted or held until cancelled (tests)."""
+
+    reject: frozenset[str] = frozenset()
+    abort: frozenset[str] = frozenset()
+    stall: frozenset[str] = frozenset()
+
+
+def build_world(scenario: PyBulletScenario, seed: int, client: int) -> PyBulletWorld:
+    """The simulator as the in-process session builds it (the same seeded generators)."""
+    from llmpas.worlds.pybullet.plugin import WORLD as PYBULLET
+
+    scene = Scene(client, scenario.scene)
+    setup_scene(scene, scenario)
+    return PyBulletWorld(
+        scene,
+        np.random.default_rng([seed, 0]),
+        PYBULLET.camera,
+        scenario.seeded_events(np.random.default_rng([seed, 4])),
+        snapshots=False,
+    )
+
+
+class RobotNode:
+    """The action servers, service and topics of one simulated robot (an rclpy node)."""
+
+    def __init__(self, node: Any, world: PyBulletWorld, faults: Faults | None = None) -> None:
+        from control_msgs.action import FollowJointTrajectory
+        from llmpas_interfaces.action import Look, Skill
+        from llmpas_interfaces.msg import Detections
+        from llmpas_interfaces.srv import GetSceneState
+        from nav2_msgs.action import NavigateToPose
+        from nav_msgs.msg import Odometry
+        from rclpy.action import ActionServer, CancelResponse, GoalResponse
+        from rclpy.callback_groups import ReentrantCallbackGroup
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+        from sensor_msgs.msg import JointState
+        from visualization_msgs.msg import MarkerArray
+
+        self.node, self.world = node, world
+        self.faults = faults or Faults()
+        self.lock = threading.Lock()
+        self.goals = 0
+        group = ReentrantCallbackGroup()
+        latched = QoSProfile(
+            depth=1,
+            reliability=ReliabilityPolicy.RELIABLE,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL,
+        )
+        self.odom = node.create_publisher(Odometry, "odom", latched)
+        self.joints = node.create_publisher(JointState, "joint_states", latched)
+        self.detections = node.create_publisher(Detections, "detections", 10)
+        self.markers = node.create_publisher(MarkerArray, "scene_markers", latched)
+        self._accept, self._cancel = GoalResponse, CancelResponse
+
+        def server(kind: type, name: str, run: Callable[[Any], Any]) -> Any:
+            return ActionServer(
+                node,
+                kind,
+                name,
+                execute_callback=run,
+                goal_callback=lambda goal: self._goal(name, goal),
+                cancel_callback=lambda handle: CancelResponse.ACCEPT,
+                callback_group=group,
+            )
+
+        self.types = {NAV: NavigateToPose, FJT: FollowJointTrajectory, SKILL: Skill, LOOK: Look}
+        self.servers = [
+            server(NavigateToPose, NAV, self._navigate),
+            server(FollowJointTrajectory, FJT, self._trajectory),
+            server(Skill, SKILL, self._skill),
+            server(Look, LOOK, self._look),
+        ]
+        self.service = node.create_service(GetSceneState, STATE, self._state, callback_group=group)
+        self.publish()
+
+    # ------------------------------------------------------------------ faults
+
+    @staticmethod
+    def _kind(name: str, goal: Any) -> str:
+        if name == SKILL:
+            return str(goal.skill)
+        return name.rsplit("/", 1)[-1]
+
+    def _goal(self, name: str, goal: Any) -> Any:
+        kind = self._kind(name, goal)
+        if kind in self.faults.reject:
+            log.warning("rejecting a %s goal (fault)", kind)
+            return self._accept.REJECT
+        return self._accept.ACCEPT
+
+    def _hold(self, handle: Any, kind: str) -> bool:
+        """A stalled goal: wait until it is cancelled. True when the fault applies."""
+        if kind not in self.faults.stall:
+            return False
+        log.warning("stalling a %s goal until it is cancelled (fault)", kind)
+        while not handle.is_cancel_requested:
+            time.sleep(0.02)
+        log.warning("the %s goal was cancelled by the client", kind)
+        return True
+
+    # ------------------------------------------------------------------ execution
+
+    def _execute(
+        self, handle: Any, name: str, act: Callable[[], SkillResult]
+    ) -> tuple[SkillResult | None, bool]:
+        """Run ``act`` on the simulator (one goal at a time). (result, cancelled)."""
+        kind = self._kind(name, handle.request)
+        if self._hold(handle, kind):
+            handle.canceled()
+            return None, True
+        self._feedback(handle, name, kind)
+        with self.lock:
+            self.goals += 1
+            if kind in self.faults.abort:
+                result = SkillResult.failure(f"{kind} aborted by the robot", reason="aborted")
+            else:
+                result = act()
+            self.publish()
+        if handle.is_cancel_requested:
+            handle.canceled()
+            return result, True
+        if result.ok:
+            handle.succeed()
+        else:
+            handle.abort()
+        return result, False
+
+    def _feedback(self, handle: Any, name: str, kind: str) -> None:
+        """One feedback message as a goal starts (where the robot is, what it does)."""
+        feedback = self.types[name].Feedback()
+        if name == NAV:
+            x, y, t = self.world.believed()
+            feedback.current_pose = convert.pose_stamped(x, y, 0.0, t)
+        elif name == FJT:
+            feedback.joint_names = list(convert.PANDA_JOINTS)
+            feedback.actual.positions = [float(v) for v in self.world.scene.arm_conf()]
+        else:
+            feedback.phase = f"running {kind}"
+        handle.publish_feedback(feedback)
+
+    def _navigate(self, handle: Any) -> Any:
+        conf = convert.base_of(handle.request.pose)
+        result, _ = self._execute(handle, NAV, lambda: self.world.move_base(conf))
+        out = self.types[NAV].Result()
+        if result is not None:
+            out.error_code = 0 if result.ok else 1
+            out.error_msg = _text(result)
+        return out
+
+    def _trajectory(self, handle: Any) -> Any:
+        goal = handle.request
+        out = self.types[FJT].Result()
+        names = list(goal.trajectory.joint_names)
+        points = goal.trajectory.points
+        if names != list(convert.PANDA_JOINTS) or not points:
+            handle.abort()
+            out.error_code = out.INVALID_JOINTS
+            out.error_string = f"expected the joints {', '.join(convert.PANDA_JOINTS)}"
+            return out
+        q = tuple(float(v) for v in points[-1].positions)
+
+        def move() -> SkillResult:
+            if self.world.skills.move_arm(q):
+                return SkillResult.success("arm folded")
+            return SkillResult.failure("cannot fold")
+
+        result, _ = self._execute(handle, FJT, move)
+        if result is not None:
+            out.error_code = out.SUCCESSFUL if result.ok else out.PATH_TOLERANCE_VIOLATED
+            out.error_string = _text(result)
+        return out
+
+    def _skill(self, handle: Any) -> Any:
+        goal = handle.request
+        result, _ = self._execute(handle, SKILL, lambda: self._do(goal.skill, goal.args))
+        out = self.types[SKILL].Result()
+        if result is not None:
+            out.success, out.message = result.ok, result.message
+            out.reason = str(result.data.get("reason", ""))
+        return out
+
+    def _do(self, skill: str, args: str) -> SkillResult:
+        import json
+
+        w = self.world
+        try:
+            a = json.loads(args) if args else {}
+            if skill == "move_arm":
+                goal: ArmGoal = convert.arm_goal(args)
+                return w.move_arm(goal)
+            if skill == "grasp":
+                return w.grasp(a["obj"], Grasp(a["grasp"]))
+            if skill == "release":
+                return w.release(a["obj"], convert.object_pose(a["pose"]))
+            if skill == "open":
+                return w.open(a["container"])
+            if skill == "close":
+                return w.close(a["container"])
+            if skill == "process":
+                return w.process(a["obj"], a["appliance"], a["how"])
+        except (KeyError, ValueError, TypeError) as e:
+            return SkillResult.failure(f"bad {skill} goal: {e}", reason="bad_value")
+        return SkillResult.failure(f"no skill {skill!r} on this robot", reason="unknown_skill")
+
+    def _look(self, handle: Any) -> Any:
+        goal = handle.request
+        seen: list[Observation] = []
+
+        def look() -> SkillResult:
+            seen.append(self._observe(goal.camera, goal.region or None, goal.target))
+            return SkillResult.success(f"{len(seen[0].detections)} detections")
+
+        result, _ = self._execute(handle, LOOK, look)
+        out = self.types[LOOK].Result()
+        if result is not None:
+            out.success, out.message = result.ok, result.message
+        if seen:
+            out.detections = convert.detections_msg(seen[0], goal.camera)
+            out.detections.header.stamp = self.node.get_clock().now().to_msg()
+            self.detections.publish(out.detections)
+        return out
+
+    def _observe(self, camera: str, region: str | None, target: str) -> Observation:
+        w = self.world
+        if camera == "arm":
+            return w.look_with_arm(region)
+        if camera == "wrist":
+            pose = w.wrist_detect(target)
+            dets = () if pose is None else (Detection(target, pose.region, pose),)
+            return Observation((), dets)
+        return w.look(region)
+
+    def _state(self, request: Any, response: Any) -> Any:
+        with self.lock:
+            response.state = convert.scene_state(self.world.scene, self.world.believed())
+        return response
+
+    # ------------------------------------------------------------------ topics
+
+    def publish(self) -> None:
+        from nav_msgs.msg import Odometry
+        from sensor_msgs.msg import JointState
+
+        now = self.node.get_clock().now().to_msg()
+        x, y, t = self.world.believed()
+        odom = Odometry()
+        odom.header.stamp, odom.header.frame_id, odom.child_frame_id = now, "odom", "base_link"
+        odom.pose.pose = convert.pose_stamped(x, y, 0.0, t).pose
+        self.odom.publish(odom)
+        js = JointState()
+        js.header.stamp = now
+        js.name = list(convert.PANDA_JOINTS)
+        js.position = [float(v) for v in self.world.scene.arm_conf()]
+        self.joints.publish(js)
+        self.markers.publish(scene_markers(self.world.scene, now))
+
+
+def scene_markers(scene: Scene, stamp: Any) -> Any:
+    """The scene's objects and tables as cubes/cylinders in ``map`` (true poses)."""
+    from visualization_msgs.msg import Marker, MarkerArray
+
+    out = MarkerArray()
+    k = 0
+    for t in scene.config.tables:
+        m = Marker()
+        m.header.frame_id, m.header.stamp = convert.FRAME, stamp
+        m.ns, m.id, m.type, m.action = "tables", k, Marker.CUBE, Marker.ADD
+        m.pose = convert.pose_stamped(t.x, t.y, 0.35, t.yaw).pose
+        m.scale.x, m.scale.y, m.scale.z = 1.5, 1.0, 0.7
+        m.color.r = m.color.g = m.color.b = 0.6
+        m.color.a = 1.0
+        m.text = t.name
+        out.markers.append(m)
+        k += 1
+    for o in scene.config.objects:
+        at, _ = scene.pose(o.name)
+        m = Marker()
+        m.header.frame_id, m.header.stamp = convert.FRAME, stamp
+        m.ns, m.id, m.action = "objects", k, Marker.ADD
+        m.type = Marker.CYLINDER if o.kind == "bowl" else Marker.CUBE
+        m.pose = convert.pose_stamped(float(at[0]), float(at[1]), float(at[2])).pose
+        m.scale.x = m.scale.y = float(o.size)
+        m.scale.z = float(o.height)
+        m.color.g, m.color.a = 0.8, 1.0
+        m.text = o.name
+        out.markers.append(m)
+        k += 1
+    return out
+
+
+def _text(result: SkillResult) -> str:
+    """A result's message with its reason, for interfaces with one text field."""
+    import json
+
+    return json.dumps({"message": result.message, "reason": result.data.get("reason", "")})
+
+
+def serve(
+    scenario: str, seed: int | None, env: RosEnv, faults: Faults, ready: Path | None = None
+) -> None:
+    """Build the simulator and serve it until SIGINT/SIGTERM (rclpy's handlers end the spin)."""
+    env.apply()
+    import rclpy
+    from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+
+    chosen = resolve(scenario)
+    context = rclpy.Context()
+    rclpy.init(context=context, domain_id=env.domain, signal_handler_options=None)
+    with open_client(False) as client:
+        seed = chosen.seed if seed is None else seed
+        world = build_world(chosen, seed, client)
+        node = rclpy.create_node("llmpas_pybullet_robot", context=context)
+        robot = RobotNode(node, world, faults)
+        executor = MultiThreadedExecutor(num_threads=4, context=context)
+        executor.add_node(node)
+        log.info(
+            "robot %s (seed %s) on ROS_DOMAIN_ID=%d, discovery %s: serving %s",
+            chosen.name,
+            seed,
+            env.domain,
+            env.discovery,
+            ", ".join(ACTIONS),
+        )
+        if ready is not None:
+            ready.write_text(f"{robot.goals}\n")
+        try:
+            executor.spin()
+        except (KeyboardInterrupt, ExternalShutdownException):
+            pass
+        finally:
+            executor.shutdown()
+            node.destroy_node()
+            context.try_shutdown()
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="llmpas robot pybullet",
+        description="serve the PyBullet Husky + Panda as a ROS 2 robot (docs/ros.md)",
+    )
+    parser.add_argument("scenario", help="a PyBullet scenario (object-loss, nominal, ...)")
+    parser.add_argument("--seed", type=int, help="the scenario's seed (default: its own)")
+    parser.add_argument("--domain", type=int, help="ROS_DOMAIN_ID (default: $ROS_DOMAIN_ID or 57)")
+    parser.add_argument("--log-dir", help="ROS_LOG_DIR (default: a temporary folder)")
+    parser.add_argument("--ready", help="write this file once every server is up")
+    for fault in ("reject", "abort", "stall"):
+        parser.add_argument(f"--{fault}", action="append", default=[], metavar="KIND")
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s robot: %(message)s", force=True)
+    log_dir = Path(args.log_dir or tempfile.mkdtemp(prefix="llmpas-robot-"))
+    try:
+        env = from_environment(log_dir / "ros", args.domain)
+        resolve(args.scenario)
+    except (KeyError, ValueError) as e:
+        sys.stderr.write(f"error: {e.args[0] if e.args else e}\n")
+        return 2
+    faults = Faults(frozenset(args.reject), frozenset(args.abort), frozenset(args.stall))
+    serve(args.scenario, args.seed, env, faults, Path(args.ready) if args.ready else None)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
+
+
+__all__ = [
+    "ACTIONS",
+    "FJT",
+    "LOOK",
+    "NAV",
+    "SKILL",
+    "STATE",
+    "Faults",
+    "RobotNode",
+    "main",
+    "serve",
+]

@@ -1,0 +1,37 @@
+"""Isolation of ROS 2 processes (no graph needed)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from llmpas.worlds.ros2.env import DISCOVERY_VAR, RosEnv, from_environment, random_domain
+
+
+def test_environment_keeps_discovery_on_localhost(tmp_path: Path) -> None:
+    env = RosEnv(random_domain(), tmp_path / "log").environ({"ROS_LOCALHOST_ONLY": "0", "X": "1"})
+    assert env["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST"
+    assert "ROS_LOCALHOST_ONLY" not in env  # ignored by current ROS 2: never relied upon
+    assert env["ROS_LOG_DIR"] == str(tmp_path / "log")
+    assert env["X"] == "1"  # the rest passes through (the ROS wheels' bootstrap variables)
+
+
+def test_a_user_widens_discovery_only_deliberately(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.delenv(DISCOVERY_VAR, raising=False)
+    monkeypatch.setenv("ROS_DOMAIN_ID", "12")
+    assert from_environment(tmp_path).discovery == "LOCALHOST"
+    assert from_environment(tmp_path).domain == 12
+    monkeypatch.setenv(DISCOVERY_VAR, "subnet")
+    assert from_environment(tmp_path).discovery == "SUBNET"
+    monkeypatch.setenv(DISCOVERY_VAR, "everywhere")
+    with pytest.raises(ValueError, match=DISCOVERY_VAR):
+        from_environment(tmp_path)
+
+
+def test_domains_are_valid(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="ROS_DOMAIN_ID"):
+        RosEnv(233, tmp_path)
+    assert all(1 <= random_domain() <= 101 for _ in range(50))
