@@ -55,7 +55,8 @@ class Replan:
     """Answers every goal request with the task goal restated (``first-look``: a fixed line)."""
 
     name = REPLAN
-    label = LABEL
+    role = LABEL
+    repairs = 0  # a restatement does not change with the errors shown
 
     def __init__(self, task: str, method: str = "flp") -> None:
         self.literals = task_literals(task)

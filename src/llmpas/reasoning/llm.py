@@ -132,10 +132,11 @@ class LLM(Protocol):
 @runtime_checkable
 class Baseline(Protocol):
     """An answerer in the LLM's place that is no LLM (the ``replan`` baseline restates the
-    task): ``label`` says what it is wherever the records would say "the LLM". The loop asks it
-    for no repairs (its answer does not depend on the errors shown)."""
+    task): ``role`` says what it is wherever the records would say "the LLM"; the loop asks it
+    for at most ``repairs`` repairs (its answer does not depend on the errors shown)."""
 
     name: str
-    label: str
+    role: str
+    repairs: int
 
     def complete(self, request: Request) -> Response: ...

@@ -136,6 +136,7 @@ class Situation:
     calls: Mapping[str, Call] = field(default_factory=dict)  # ProgPrompt: actions as functions
     objects: tuple[str, ...] = ()
     constraint: Formula | None = None  # the anomaly's failed literal, as data (never shown)
+    intent: str = ""  # the task's intent (PDDL, "": the task goal), as data (never shown)
 
     def fields(self, first_look: str = "") -> dict[str, str]:
         history = f"\n## Already tried without success\n{self.history}\n" if self.history else ""

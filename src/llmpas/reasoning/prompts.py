@@ -19,9 +19,11 @@ def situation(
     task: str,
     history: str = "",
     constraint: Formula | None = None,
+    intent: str = "",
 ) -> Situation:
     """What a prompt may show about one anomaly (``anomaly``: its sentence; ``constraint``: the
-    failed literal, carried as data for backends that read it, never shown twice)."""
+    failed literal, carried as data for backends that read it, never shown twice; ``intent``: the
+    task's intent when the run has one, as data, never shown)."""
     return Situation(
         anomaly=anomaly,
         actions=tables.action_library(),
@@ -32,6 +34,7 @@ def situation(
         calls=tables.calls,
         objects=tables.objects,
         constraint=constraint,
+        intent=intent,
     )
 
 

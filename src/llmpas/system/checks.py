@@ -46,6 +46,12 @@ class GoalChecker:
     task: Formula
     tried: Callable[[], Sequence[frozenset[str]]] = tuple
     assists: Assists = field(default_factory=Assists)
+    # whether some action can make a literal true (None: every literal may be); a literal no
+    # action makes true is unreachable without asking the planner
+    makeable: Callable[[Literal], bool] | None = None
+    # the feedback for goals that restate the goal that just failed, when planning them would
+    # repeat the failure ("" otherwise; None: no such check)
+    restated: Callable[[Sequence[Literal]], str] | None = None
 
     def __call__(self, parse: GoalParse) -> GoalParse:
         """Already-true goals are dropped; repeats of exhausted searches and of attempts that
@@ -79,6 +85,9 @@ class GoalChecker:
         if not parse.ok:
             culprits = [r for r in raw if (self.as_goal(r) if rewrite else r) in parse.rejected]
             return replace(parse, rejected=tuple(culprits))
+        why = self.restated(parse.goals) if self.restated is not None else ""
+        if why:
+            return rejected(parse, GoalStatus.REPEATED, [why], raw if len(raw) == 1 else ())
         key = frozenset(map(str, parse.goals))
         if key in self.tried():
             errors = [f"{' '.join(sorted(key))} was already tried and did not help"]
@@ -125,11 +134,12 @@ class GoalChecker:
         """Goals no plan reaches from the believed state are dropped (when others are
         reachable) or rejected with feedback (when none is)."""
         goals = parse.goals
-        if self.plan(And(goals)).solved:
+        never = [g for g in goals if self.makeable is not None and not self.makeable(g)]
+        if not never and self.plan(And(goals)).solved:
             return parse
-        ok = [g for g in goals if self.plan(And((g,))).solved]
+        ok = [g for g in goals if g not in never and self.plan(And((g,))).solved]
         bad = [g for g in goals if g not in ok]
-        unjudged = [g for g in bad if self.plan(And((g,))).status in UNJUDGED]
+        unjudged = [g for g in bad if g not in never and self.plan(And((g,))).status in UNJUDGED]
         if unjudged:  # a safety net fired: no verdict, and not "unreachable"
             why = [f"{g}: not judged: {self.plan(And((g,))).message}" for g in unjudged]
             return rejected(parse, GoalStatus.UNREACHABLE, why, unjudged)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -32,6 +32,7 @@ from llmpas.reasoning.goals import Literal
 from llmpas.reasoning.llm import LLM, Baseline, LLMError, Request, Response
 from llmpas.reasoning.methods import MethodConfig, propose
 from llmpas.reasoning.prompts import situation
+from llmpas.system.achievable import Makeable, certified
 from llmpas.system.checks import GoalChecker
 from llmpas.system.records import LoopResult, LoopStatus, OnRound, Round
 from llmpas.system.recovery import Stages, conjuncts, kept_goal, out_of_order
@@ -121,6 +122,8 @@ class _Loop:
     rounds: list[Round] = field(default_factory=list)
     report: AnomalyReport | None = None
     tried: list[frozenset[str]] = field(default_factory=list)  # achieved, did not help
+    failed: list[tuple[frozenset[str], str]] = field(default_factory=list)  # execution failed
+    just_failed: frozenset[str] = frozenset()  # the literals of the goal whose round just failed
     pending: frozenset[str] | None = None  # the goals being pursued
     plans: dict[tuple[str, int], tuple[PlanResult, Any]] = field(default_factory=dict)
     llm_time: float = 0.0
@@ -149,18 +152,26 @@ class _Loop:
             self.task,
             self.assists.unsearched_list,
         )
+        self.makeable = Makeable(
+            s.domain,
+            lambda literal: self.facts(And((literal,))),
+            certified(s.problem(self.task, 0)),
+        )
         self.check = GoalChecker(
             self.memory,
             lambda goal: self.plan(goal)[0],
             self.facts,
             self.sem,
             self.task,
-            lambda: self.tried,
+            lambda: [*self.tried, *(goals for goals, _ in self.failed)],
             self.assists,
+            self.makeable,
+            self.restates_failure,
         )
         self.start = self.clock()
 
     def run(self, backend: LLM) -> LoopResult:
+        backend = Once(backend)  # an identical request is never sent twice in one run
         goal, text = self.task_goal()
         on_task = True  # the round plans the task (with the recovery goals kept), not goals
         steps = 2 * self.max_rounds + 1  # the task, then per LLM round: goals + task
@@ -200,6 +211,8 @@ class _Loop:
             else:
                 if ep.anomaly is not None and self.task_holds():
                     return self.end(True, f"the task holds: {ep.anomaly.describe()}")
+                if ep.anomaly is not None:
+                    self.failed_round(ep.anomaly, on_task)
                 if ep.anomaly is None or asked >= self.max_rounds:
                     return self.end(False, ep.message or "out of LLM rounds")
                 report = self.report = ep.anomaly
@@ -222,8 +235,9 @@ class _Loop:
             self.record()
             if not proposal.ok:
                 errors = "; ".join(proposal.parse.errors)
-                return self.end(False, f"{self.who} gave no usable goals: {errors}")
-            # goals whose execution fails are not blamed: only achieved ones count as tried
+                return self.end(False, f"{self.who} gave no usable goals: " + errors)
+            # achieved goals that did not help count as tried, and so do goals whose execution
+            # failed (:meth:`failed_round`)
             self.pending = frozenset(map(str, proposal.goals))
             goal, text = self.next_goal(list(proposal.goals))
             on_task = False
@@ -288,13 +302,50 @@ class _Loop:
             s.task,
             self.history(),
             report.constraint,
+            self.success or "",
         )
 
     def history(self) -> str:
-        """What the prompt says was tried: the searches, then the goals that did not help."""
+        """What the prompt says was tried: the searches, the goals that did not help, then the
+        goals whose execution failed (and why)."""
         lines = self.memory.history()
         lines += [f"- goals {' '.join(sorted(t))} did not help" for t in self.tried]
+        lines += [
+            f"- goals {' '.join(sorted(t))} could not be achieved: {why}" for t, why in self.failed
+        ]
         return "\n".join(lines)
+
+    def failed_round(self, anomaly: AnomalyReport, on_task: bool) -> None:
+        """A round's execution failed: its goal is the one that just failed (an answer that
+        restates it gets that feedback), and the LLM's goals it pursued count as tried, so that
+        the next consultation is told so and cannot propose them again."""
+        if on_task:
+            self.just_failed = frozenset(str(a) for a in conjuncts(self.task))
+            return
+        if self.pending is None:
+            return
+        self.just_failed = self.pending
+        if all(self.pending != goals for goals, _ in self.failed):
+            self.failed.append((self.pending, f"{anomaly.action} failed ({anomaly.reason})"))
+
+    def restates_failure(self, goals: Sequence[Literal]) -> str:
+        """The feedback for an answer whose goals are all of the goal that just failed, when
+        its plan repeats the step that failed and nothing the robot believes says why (the
+        failure would repeat); "" otherwise (the belief now explains it: replanning may work)."""
+        names = frozenset(map(str, goals))
+        report = self.report
+        if report is None or not names or not names <= self.just_failed:
+            return ""
+        both = kept_goal(self.task, self.stages.kept, list(goals))
+        result, problem = self.plan(both)
+        if not (result.solved and self.repeats_unexplained(result, problem)):
+            return ""
+        step = " ".join((report.action, *report.args))
+        return (
+            f"{' '.join(sorted(names))} restates the goal that just failed ({step}: "
+            f"{report.reason}); planned again, the same step would fail the same way, since "
+            "nothing the robot believes has changed; propose what must become true first"
+        )
 
     def attempt(self, goal: Formula | str, text: str) -> Round:
         result, problem = self.plan(goal)
@@ -476,9 +527,9 @@ def close_loop(
     )
     try:
         backend = factory(session)
-        if isinstance(backend, Baseline):  # no LLM: said so, and no repairs asked of it
-            loop.who = backend.label
-            loop.method = replace(loop.method, repairs=0)
+        loop.who = who(backend)  # "the LLM", or what answers in its place
+        if isinstance(backend, Baseline):  # no LLM: no repairs asked of it
+            loop.method = replace(loop.method, repairs=min(loop.method.repairs, backend.repairs))
         if settings.deadline is not None:
             backend = _ByDeadline(backend, loop.remaining)
         result = loop.run(backend)
@@ -510,16 +561,24 @@ class _ByDeadline:
         self.inner = inner
         self.name = inner.name
         self.remaining = remaining
+        self.role = who(inner)
+        scorer = getattr(inner, "score", None)
+        if callable(scorer):
+            self.score = lambda request: self._call(scorer, request)
 
     def complete(self, request: Request) -> Response:
+        response: Response = self._call(self.inner.complete, request)
+        return response
+
+    def _call(self, fn: Callable[[Any], Any], request: Any) -> Any:
         left = self.remaining()
         if left <= 0:
             raise _DeadlineReached
-        out: list[Response | BaseException] = []
+        out: list[Any] = []
 
         def call() -> None:
             try:
-                out.append(self.inner.complete(request))
+                out.append(fn(request))
             except BaseException as err:  # handed over to the loop's thread
                 out.append(err)
 
@@ -533,10 +592,46 @@ class _ByDeadline:
         return out[0]
 
 
+class Once:
+    """An identical request is never sent twice in one run: a request (or a scoring request)
+    whose key was sent before gets the answer given then (a fixed-seed model would give it
+    again, and a round would be wasted asking)."""
+
+    def __init__(self, inner: LLM) -> None:
+        self.inner = inner
+        self.name = inner.name
+        self.role = who(inner)
+        self.answers: dict[str, Any] = {}
+        self.repeats = 0  # requests answered from what was sent before
+        scorer = getattr(inner, "score", None)
+        if callable(scorer):
+            self.score = lambda request: self._once(scorer, request)
+
+    def complete(self, request: Request) -> Response:
+        response: Response = self._once(self.inner.complete, request)
+        return response
+
+    def _once(self, fn: Callable[[Any], Any], request: Any) -> Any:
+        key = request.key()
+        if key in self.answers:
+            self.repeats += 1
+            return self.answers[key]
+        self.answers[key] = answer = fn(request)
+        return answer
+
+
+def who(backend: object) -> str:
+    """Who answers goal requests, in the loop's messages: ``the LLM``, unless the backend says
+    it is something else (a labelled oracle, the replan baseline), so that their failures are
+    not called the LLM's."""
+    return str(getattr(backend, "role", "") or "the LLM")
+
+
 __all__ = [
     "LLMFactory",
     "LLMFor",
     "LoopSettings",
+    "Once",
     "as_factory",
     "close_loop",
     "counted",
@@ -544,4 +639,5 @@ __all__ = [
     "fixed",
     "plan",
     "repeats_failure",
+    "who",
 ]

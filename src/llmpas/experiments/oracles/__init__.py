@@ -5,7 +5,10 @@ as a default). Each implements the LLM protocol and reads the anomaly from the r
 from __future__ import annotations
 
 from llmpas.language.logic import Atom, Formula, Not
+from llmpas.language.sexpr import SList, Sym, parse_all
+from llmpas.reasoning.goals import parse_goals
 from llmpas.reasoning.llm import Request, Response
+from llmpas.reasoning.tables import Vocabulary
 
 FIRST_LOOK = "Look where the truth says."
 
@@ -22,17 +25,34 @@ def failed_literal(request: Request) -> Formula | None:
 class TruthOracle:
     """The shape every world's oracle shares: a short first look, then goals for the failed
     literal the request carries (:meth:`goals_for` the literal's atom; ``negated``: it failed
-    as ``(not atom)``), computed from the world's truth by the subclass."""
+    as ``(not atom)``), computed from the world's truth by the subclass.
+
+    Its answers are legal: with a ``vocabulary`` (set by the world's factory), a goal the
+    vocabulary rejects is left out. When the truth gives no goal and the task has an intent
+    other than its goal (``[judge] success``: another object will do as well), the oracle
+    answers the intent's first alternative that does not name the failed literal's objects.
+    Its failures are its own: the loop calls it ``the oracle`` (:attr:`role`)."""
 
     name = "oracle"
+    role = "the oracle (an upper bound)"
+    vocabulary: Vocabulary | None = None
 
     def complete(self, request: Request) -> Response:
         c = failed_literal(request)
         if c is None:
             return first_look()
-        atom = c.arg if isinstance(c, Not) else c
-        goals = self.goals_for(atom, isinstance(c, Not)) if isinstance(atom, Atom) else []
+        goals = self.legal(self.goals(c))
+        if not goals:
+            intent = str(getattr(request.situation, "intent", "") or "")
+            goals = self.legal(substitute(intent, c))
         return answer(goals)
+
+    def legal(self, goals: list[Atom | Not]) -> list[Atom | Not]:
+        """The goals the vocabulary accepts (all of them without one)."""
+        vocab = self.vocabulary
+        if vocab is None:
+            return goals
+        return [g for g in goals if parse_goals(f"(and {g})", vocab).ok]
 
     def goals(self, c: Formula) -> list[Atom | Not]:
         atom = c.arg if isinstance(c, Not) else c
@@ -40,6 +60,45 @@ class TruthOracle:
 
     def goals_for(self, atom: Atom, negated: bool) -> list[Atom | Not]:
         raise NotImplementedError
+
+
+def substitute(intent: str, failed: Formula) -> list[Atom | Not]:
+    """The first alternative of ``intent`` (an ``or`` of conjunctions of literals) that names
+    none of the objects of the ``failed`` literal ([] when there is none)."""
+    if not intent.strip():
+        return []
+    try:
+        exprs = parse_all(intent, "intent")
+    except ValueError:
+        return []
+    if len(exprs) != 1 or not isinstance(exprs[0], SList):
+        return []
+    top = exprs[0]
+    options = top.items[1:] if top.head() == "or" else [top]
+    atom = failed.arg if isinstance(failed, Not) else failed
+    names = set(getattr(atom, "args", ()))
+    for option in options:
+        literals = _literals(option)
+        named = {
+            a for g in literals for a in getattr(g.arg if isinstance(g, Not) else g, "args", ())
+        }
+        if literals and not names & named:
+            return literals
+    return []
+
+
+def _literals(e: object) -> list[Atom | Not]:
+    """A literal or a conjunction of literals as a list ([] for anything else)."""
+    if isinstance(e, SList) and e.head() == "and":
+        parts = [_literals(i) for i in e.items[1:]]
+        return [g for p in parts for g in p] if all(len(p) == 1 for p in parts) else []
+    if isinstance(e, SList) and e.head() == "not" and len(e.items) == 2:
+        inner = _literals(e.items[1])
+        return [Not(inner[0])] if len(inner) == 1 and isinstance(inner[0], Atom) else []
+    if isinstance(e, SList) and e.items and all(isinstance(a, Sym) for a in e.items):
+        name, *args = (str(getattr(a, "text", a)).lower() for a in e.items)
+        return [Atom(name, tuple(args))]
+    return []
 
 
 def answer(goals: list[Atom | Not]) -> Response:
@@ -50,4 +109,11 @@ def first_look() -> Response:
     return Response(FIRST_LOOK, model="oracle")
 
 
-__all__ = ["FIRST_LOOK", "TruthOracle", "answer", "failed_literal", "first_look"]
+__all__ = [
+    "FIRST_LOOK",
+    "TruthOracle",
+    "answer",
+    "failed_literal",
+    "first_look",
+    "substitute",
+]

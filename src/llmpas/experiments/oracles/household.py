@@ -94,12 +94,22 @@ class Oracle(TruthOracle):
         return []
 
     def _find(self, obj: str) -> Atom:
+        """Look where ``obj`` truly is: under its cover, or at the region it rests in; inside a
+        receptacle (a bowl), where the receptacle is (a look at a region sees what is in the
+        receptacles there); held (or in a held receptacle): nothing to look for."""
         truth = self.world.truth
-        cover = truth.covered.get(obj)
-        if cover is not None:
-            return Atom("scanned", (cover,))
-        if obj not in truth.placements:  # held: nothing to look for
-            return Atom("holding", (obj,))
+        seen: set[str] = set()
+        while obj not in seen:
+            seen.add(obj)
+            cover = truth.covered.get(obj)
+            if cover is not None:
+                return Atom("scanned", (cover,))
+            if obj not in truth.placements:  # held: nothing to look for
+                return Atom("holding", (obj,))
+            region = truth.placements[obj].region
+            if not truth.is_receptacle(region):
+                return Atom("scanned", (region,))
+            obj = region
         return Atom("scanned", (truth.placements[obj].region,))
 
     def _clear(self, region: str) -> list[Atom | Not]:
@@ -118,7 +128,9 @@ class Oracle(TruthOracle):
 
 def oracle(session: HouseholdSession) -> Oracle:
     task = atoms_of(parse_formula(session.task, session.domain))
-    return Oracle(session.sim, tuple(task))
+    made = Oracle(session.sim, tuple(task))
+    made.vocabulary = session.vocabulary  # its answers are legal goals
+    return made
 
 
 __all__ = ["Oracle", "oracle"]
