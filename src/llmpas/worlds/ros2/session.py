@@ -178,6 +178,10 @@ class Ros2Session(PyBulletSession):
             "achieved": self.achieved(),
             "timings": self.timings,
             "goals": self.robot.goals,
+            "environment": {  # this process's, set before rclpy started
+                k: os.environ.get(k, "")
+                for k in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "ROS_LOG_DIR")
+            },
             "anomalies": self.anomalies,
             "bag": BAG,
             "channels": {
