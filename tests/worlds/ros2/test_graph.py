@@ -12,6 +12,8 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 from llmpas.worlds.ros2.env import random_domain
 from tests.worlds.ros2.conftest import REPO, llmpas
 
@@ -216,7 +218,11 @@ def test_ctrl_c_cancels_the_goal_on_the_robot(tmp_path: Path, start_robot) -> No
     try:
         assert robot.wait_for("stalling a grasp goal", 600), robot.text()[-2000:]
         run.send_signal(signal.SIGINT)
-        _, err = run.communicate(timeout=120)
+        try:
+            _, err = run.communicate(timeout=120)
+        except subprocess.TimeoutExpired:
+            run.send_signal(signal.SIGABRT)  # faulthandler: every thread's stack
+            pytest.fail("the run did not end after Ctrl-C:\n" + run.communicate(timeout=30)[1])
     finally:
         if run.poll() is None:
             run.kill()

@@ -41,8 +41,8 @@ class Timeouts:
     """Seconds: to find every server at start, for a goal to be accepted, for a goal to end,
     and for a server that vanished mid-goal to come back."""
 
-    discover: float = 20.0
-    accept: float = 10.0
+    discover: float = 30.0
+    accept: float = 30.0
     goal: float = 300.0
     lost: float = 3.0
 
@@ -91,8 +91,11 @@ class RosRobot:
             log.debug("ROS 2 spinner stopped", exc_info=True)
 
     def shutdown(self) -> None:
+        """Stop spinning; the node goes with its context (never blocks on a busy spinner)."""
         self.executor.shutdown(timeout_sec=2.0)
-        self.node.destroy_node()
+        self.spinner.join(timeout=2.0)
+        if not self.spinner.is_alive():
+            self.node.destroy_node()
 
     # ------------------------------------------------------------------ connection
 
@@ -106,13 +109,12 @@ class RosRobot:
                     f"no ROS 2 action server /{name} ({self.types[name].__module__.split('.')[0]}"
                     f"/{self.types[name].__name__}) within {self.timeouts.discover:g} s"
                 )
-        if not self.state_client.wait_for_service(
-            timeout_sec=max(0.0, deadline - time.monotonic())
-        ):
-            raise RobotUnavailableError(
-                f"no ROS 2 service /{STATE} within {self.timeouts.discover:g} s"
-            )
-        self.sync()
+        while not self.sync():  # the first answer: requests and replies both matched
+            if time.monotonic() > deadline:
+                raise RobotUnavailableError(
+                    f"no answer from the ROS 2 service /{STATE} within {self.timeouts.discover:g} s"
+                )
+            self.state_client.wait_for_service(timeout_sec=0.5)
 
     def sync(self) -> bool:
         """Read the robot's state into the planning scene (False: the robot did not answer)."""
@@ -122,6 +124,7 @@ class RosRobot:
             return False
         future = self.state_client.call_async(GetSceneState.Request())
         if not self._wait(future, self.timeouts.accept):
+            self.state_client.remove_pending_request(future)
             return False
         self.believed = convert.apply_state(self.scene, future.result().state)
         return True

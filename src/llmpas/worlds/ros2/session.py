@@ -51,7 +51,7 @@ from llmpas.worlds.ros2.record import McapRecorder, type_name
 log = logging.getLogger(__name__)
 
 ROBOT_VAR = "LLMPAS_ROS_ROBOT"  # "external": connect to a running robot, start none
-TIMEOUT_VAR = "LLMPAS_ROS_DISCOVER_TIMEOUT"  # seconds to find every server (default 20)
+TIMEOUT_VAR = "LLMPAS_ROS_DISCOVER_TIMEOUT"  # seconds to find every server (default 30)
 BAG = "ros.mcap"
 TOPICS = {  # recorded topics: name -> (package, message)
     "odom": ("nav_msgs.msg", "Odometry"),
