@@ -91,8 +91,14 @@ class Ros2Session(PyBulletSession):
         self.bag = McapRecorder(folder / BAG)
         self.robot = RosRobot(context, self.scene, plugin.timeouts, self._record_goal)
         self.world = self.robot  # type: ignore[assignment]  # what PyBulletSession reads
-        self.subscriptions = [self._subscribe(t, *m) for t, m in TOPICS.items()]
-        self.robot.wait_for_servers()
+        self.saved = False
+        try:
+            self.subscriptions = [self._subscribe(t, *m) for t, m in TOPICS.items()]
+            self.robot.wait_for_servers()
+        except BaseException:
+            self.bag.close()
+            self.robot.shutdown()
+            raise
         self.timings["connect"] = time.perf_counter() - t0
         belief = belief_for(self.scene, scenario, np.random.default_rng([self.seed, 3]))
         self.geometry = Geometry(self.scene, np.random.default_rng([self.seed, 1]))
@@ -212,6 +218,7 @@ class Ros2Session(PyBulletSession):
                 written.append(Path(shutil.copyfile(source, folder / f"ros-{name}")))
             elif source.is_dir():
                 shutil.copytree(source, folder / "ros-log", dirs_exist_ok=True)
+        self.saved = True
         return written
 
 
@@ -257,13 +264,19 @@ class Ros2Plugin:
             try:
                 session = Ros2Session(chosen, plugin, options, client, context, folder)
             except RobotUnavailableError as e:
-                hint = "" if external else " (the robot node did not come up)"
+                hint = "" if external else f" (the robot node did not come up: {folder}/robot.log)"
                 raise RosError(f"{e}{hint}; ROS_DOMAIN_ID={env.domain}") from None
             try:
                 yield session
             finally:
                 session.bag.close()
                 session.robot.shutdown()
+        # the session's folder: copied into the run folder by save(); else kept (an interrupted
+        # run without a run folder still has its recording there)
+        if session.saved:
+            shutil.rmtree(folder, ignore_errors=True)
+        else:
+            log.info("the ROS 2 recording and logs are in %s", folder)
 
 
 @contextmanager
