@@ -1,7 +1,7 @@
 """The standard interfaces over a real graph, goal by goal: a client process drives the robot
 node's FollowJointTrajectory and NavigateToPose servers through :class:`RosRobot` (the loop's
 ``move_arm("home")`` and ``move_base``), an abort of a standard server is a skill failure, and
-a killed node's next goal fails at once with reason ``lost``."""
+the GripperCommand server closes and opens the fingers."""
 
 from __future__ import annotations
 
@@ -37,6 +37,13 @@ with ros_context(from_environment(Path(sys.argv[1]))) as context, open_client(Fa
     goal.trajectory.joint_names = ["elbow"]
     failed, result = robot.goal("arm_controller/follow_joint_trajectory", goal)
     out["bad_joints"] = [failed.message, failed.data.get("reason"), result.error_code]
+    grip = robot.types["gripper_controller/gripper_cmd"].Goal()
+    grip.command.position, grip.command.max_effort = 0.0, 40.0
+    failed, result = robot.goal("gripper_controller/gripper_cmd", grip)
+    out["close"] = [failed is None, result.position, result.stalled, result.reached_goal]
+    grip.command.position = 0.04
+    failed, result = robot.goal("gripper_controller/gripper_cmd", grip)
+    out["open"] = [failed is None, result.position, result.stalled]
     robot.shutdown()
 print(json.dumps(out))
 """
@@ -64,3 +71,7 @@ def test_standard_servers_answer_goal_by_goal(tmp_path: Path, start_robot) -> No
     assert abs(believed[0] - 0.3) < 1e-6  # odometry: where the robot believes it is
     message, reason, code = out["bad_joints"]
     assert "expected the joints panda_joint1" in message and reason == "aborted" and code == -2
+    ok, width, stalled, reached = out["close"]  # closed on air: nothing held
+    assert ok and width < 0.01 and not stalled and reached
+    ok, width, stalled = out["open"]
+    assert ok and width > 0.03 and not stalled

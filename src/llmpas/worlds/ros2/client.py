@@ -27,9 +27,12 @@ from llmpas.execution.world import Observation, SkillResult
 from llmpas.worlds.pybullet.scene import HOME_CONF, Scene
 from llmpas.worlds.pybullet.values import ArmGoal, BaseConf, ObjectPose
 from llmpas.worlds.ros2 import convert
-from llmpas.worlds.ros2.node import ACTIONS, FJT, LOOK, NAV, SKILL, STATE
+from llmpas.worlds.ros2.node import ACTIONS, FJT, GRIPPER, LOOK, NAV, SKILL, STATE
 
 log = logging.getLogger(__name__)
+
+
+REQUIRED = (NAV, FJT, SKILL, LOOK)  # what the loop calls (the gripper action is optional)
 
 
 class RobotUnavailableError(Exception):
@@ -58,7 +61,7 @@ class RosRobot:
         on_goal: Callable[[str, str, Any], None] | None = None,
     ) -> None:
         import rclpy
-        from control_msgs.action import FollowJointTrajectory
+        from control_msgs.action import FollowJointTrajectory, GripperCommand
         from llmpas_interfaces.action import Look, Skill
         from llmpas_interfaces.srv import GetSceneState
         from nav2_msgs.action import NavigateToPose
@@ -69,7 +72,13 @@ class RosRobot:
         self.timeouts = timeouts or Timeouts()
         self.on_goal = on_goal or (lambda channel, kind, msg: None)
         self.node = rclpy.create_node("llmpas_client", context=context)
-        self.types = {NAV: NavigateToPose, FJT: FollowJointTrajectory, SKILL: Skill, LOOK: Look}
+        self.types = {
+            NAV: NavigateToPose,
+            FJT: FollowJointTrajectory,
+            GRIPPER: GripperCommand,
+            SKILL: Skill,
+            LOOK: Look,
+        }
         self.clients = {n: ActionClient(self.node, t, n) for n, t in self.types.items()}
         self.state_client = self.node.create_client(GetSceneState, STATE)
         self.executor = SingleThreadedExecutor(context=context)
@@ -103,7 +112,8 @@ class RosRobot:
         """Every action server and the state service, within ``timeouts.discover`` (else
         :class:`RobotUnavailableError` naming the first missing one)."""
         deadline = time.monotonic() + self.timeouts.discover
-        for name, client in self.clients.items():
+        for name in REQUIRED:
+            client = self.clients[name]
             if not client.wait_for_server(timeout_sec=max(0.0, deadline - time.monotonic())):
                 raise RobotUnavailableError(
                     f"no ROS 2 action server /{name} ({self.types[name].__module__.split('.')[0]}"
@@ -316,4 +326,4 @@ def _parse(text: str) -> tuple[str, str, bool]:
     return text, "", False
 
 
-__all__ = ["ACTIONS", "RobotUnavailableError", "RosRobot", "Timeouts"]
+__all__ = ["ACTIONS", "REQUIRED", "RobotUnavailableError", "RosRobot", "Timeouts"]
