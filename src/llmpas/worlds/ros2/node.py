@@ -44,7 +44,7 @@ from llmpas.worlds.pybullet.scene import FINGER_OPEN, Scene, open_client
 from llmpas.worlds.pybullet.values import ArmGoal, Grasp
 from llmpas.worlds.pybullet.world import PyBulletWorld
 from llmpas.worlds.ros2 import convert
-from llmpas.worlds.ros2.env import RosEnv, from_environment
+from llmpas.worlds.ros2.env import RosEnv, from_environment, reclaim_shared_memory
 
 log = logging.getLogger(__name__)
 
@@ -405,6 +405,7 @@ def serve(
 ) -> None:
     """Build the simulator and serve it until SIGINT/SIGTERM (rclpy's handlers end the spin)."""
     env.apply()
+    reclaim_shared_memory()  # what killed nodes left in /dev/shm
     import rclpy
     from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 

@@ -45,7 +45,12 @@ from llmpas.worlds.pybullet.run import PyBulletScenario, belief_for, resolve, sc
 from llmpas.worlds.pybullet.scene import Scene, open_client
 from llmpas.worlds.pybullet.streams import Geometry
 from llmpas.worlds.ros2.client import RobotUnavailableError, RosRobot, Timeouts
-from llmpas.worlds.ros2.env import RosEnv, from_environment, random_domain
+from llmpas.worlds.ros2.env import (
+    RosEnv,
+    from_environment,
+    random_domain,
+    reclaim_shared_memory,
+)
 from llmpas.worlds.ros2.record import McapRecorder, type_name
 
 log = logging.getLogger(__name__)
@@ -246,6 +251,9 @@ class Ros2Plugin:
                 plugin = replace(self, timeouts=replace(self.timeouts, discover=float(wait)))
             except ValueError:
                 raise RosError(f"{TIMEOUT_VAR}={wait!r}: not a number of seconds") from None
+        reclaimed = reclaim_shared_memory()  # what killed nodes left in /dev/shm
+        if reclaimed:
+            log.info("removed %d shared-memory segments of ended ROS 2 processes", reclaimed)
         folder = Path(tempfile.mkdtemp(prefix="llmpas-ros2-"))
         external = os.environ.get(ROBOT_VAR, "").strip().lower() == "external"
         try:
