@@ -40,6 +40,7 @@ BENCHMARKS: Mapping[str, str] = MappingProxyType(
         "prompting": "llmpas.experiments.prompting:BENCHMARK",
         "blocksworld": "llmpas.experiments.blocksworld:BENCHMARK",
         "report": "llmpas.experiments.webreport:BENCHMARK",
+        "ros": "llmpas.experiments.ros_overhead:BENCHMARK",
     }
 )
 

@@ -111,7 +111,7 @@ def llmpas(
     """``llmpas ARGS`` in its own process, its environment isolated like a node's."""
     env = ros_environ(domain, log_dir, **extra)
     return subprocess.Popen(
-        [sys.executable, "-m", "llmpas.cli", *args],
+        [sys.executable, "-X", "faulthandler", "-m", "llmpas.cli", *args],
         env=env,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,

@@ -2,11 +2,19 @@
 
 from __future__ import annotations
 
+import fcntl
+import os
 from pathlib import Path
 
 import pytest
 
-from llmpas.worlds.ros2.env import DISCOVERY_VAR, RosEnv, from_environment, random_domain
+from llmpas.worlds.ros2.env import (
+    DISCOVERY_VAR,
+    RosEnv,
+    from_environment,
+    random_domain,
+    reclaim_shared_memory,
+)
 
 
 def test_environment_keeps_discovery_on_localhost(tmp_path: Path) -> None:
@@ -35,3 +43,21 @@ def test_domains_are_valid(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="ROS_DOMAIN_ID"):
         RosEnv(233, tmp_path)
     assert all(1 <= random_domain() <= 101 for _ in range(50))
+
+
+def test_only_segments_of_ended_processes_are_reclaimed(tmp_path: Path) -> None:
+    old = 1_000_000_000  # an mtime long ago
+    for name in ("fastrtps_dead", "fastrtps_live", "fastrtps_young", "fastrtps_port7411"):
+        for suffix in ("", "_el"):
+            (tmp_path / f"{name}{suffix}").write_bytes(b"x")
+            if name != "fastrtps_young":
+                os.utime(tmp_path / f"{name}{suffix}", (old, old))
+    held = os.open(tmp_path / "fastrtps_live_el", os.O_RDWR)
+    fcntl.flock(held, fcntl.LOCK_EX)  # a live participant holds its lock
+    try:
+        assert reclaim_shared_memory(tmp_path) == 1
+    finally:
+        os.close(held)
+    left = sorted(p.name for p in tmp_path.iterdir())
+    assert "fastrtps_dead" not in left and "fastrtps_dead_el" not in left
+    assert {"fastrtps_live", "fastrtps_young", "fastrtps_port7411"} <= set(left)

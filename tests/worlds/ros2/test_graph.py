@@ -9,7 +9,10 @@ import os
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
+
+import pytest
 
 from llmpas.worlds.ros2.env import random_domain
 from tests.worlds.ros2.conftest import REPO, llmpas
@@ -78,6 +81,57 @@ def test_replayed_model_over_ros_gives_the_in_process_run(tmp_path: Path) -> Non
     assert about["channels"]["/diagnostics"]["messages"] == len(topics["/diagnostics"])
     page = (tmp_path / "ros" / "index.html").read_text()
     assert "ros.mcap" in page
+
+
+def _children(pid: int) -> list[int]:
+    found = []
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        found += [int(c) for c in (task / "children").read_text().split()]
+    return found
+
+
+def test_every_node_keeps_discovery_on_localhost_in_its_own_domain(tmp_path: Path) -> None:
+    """``llmpas run --world ros2`` started with discovery widened and a domain of the user's:
+    the run and the robot node it starts both keep discovery on localhost, on one random
+    domain of their own, with their logs in their folders; the run still ends "task done"."""
+    run = llmpas(
+        [
+            "run",
+            "object-loss",
+            "--world",
+            "ros2",
+            "--llm",
+            "oracle",
+            "--out",
+            str(tmp_path / "run"),
+        ],
+        random_domain(),
+        tmp_path / "client-log",
+        ROS_AUTOMATIC_DISCOVERY_RANGE="SUBNET",
+        ROS_LOCALHOST_ONLY="1",
+    )
+    try:
+        robot: dict[str, str] = {}
+        for _ in range(600):
+            child = next(iter(_children(run.pid)), None)
+            robot = _environ(child) if child is not None else {}
+            if "ROS_DOMAIN_ID" in robot:
+                break
+            time.sleep(0.1)
+        _, err = run.communicate(timeout=900)
+    finally:
+        if run.poll() is None:
+            run.kill()
+    assert run.returncode == 0, err[-2000:]
+    assert robot, "the run started no robot node"
+    client = json.loads((tmp_path / "run" / "ros.json").read_text())["environment"]
+    for env in (robot, client):
+        assert env["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST"
+        assert env["ROS_DOMAIN_ID"] == robot["ROS_DOMAIN_ID"]
+        assert Path(env["ROS_LOG_DIR"]).name == "log"
+    assert "ROS_LOCALHOST_ONLY" not in robot
+    assert 1 <= int(robot["ROS_DOMAIN_ID"]) <= 101
+    assert (tmp_path / "run" / "ros-log").is_dir()  # the run's ROS logs, in the run folder
 
 
 def test_killed_robot_node_is_a_failure_and_loop_json_keeps_every_round(
@@ -164,7 +218,11 @@ def test_ctrl_c_cancels_the_goal_on_the_robot(tmp_path: Path, start_robot) -> No
     try:
         assert robot.wait_for("stalling a grasp goal", 600), robot.text()[-2000:]
         run.send_signal(signal.SIGINT)
-        _, err = run.communicate(timeout=120)
+        try:
+            _, err = run.communicate(timeout=120)
+        except subprocess.TimeoutExpired:
+            run.send_signal(signal.SIGABRT)  # faulthandler: every thread's stack
+            pytest.fail("the run did not end after Ctrl-C:\n" + run.communicate(timeout=30)[1])
     finally:
         if run.poll() is None:
             run.kill()

@@ -27,9 +27,12 @@ from llmpas.execution.world import Observation, SkillResult
 from llmpas.worlds.pybullet.scene import HOME_CONF, Scene
 from llmpas.worlds.pybullet.values import ArmGoal, BaseConf, ObjectPose
 from llmpas.worlds.ros2 import convert
-from llmpas.worlds.ros2.node import ACTIONS, FJT, LOOK, NAV, SKILL, STATE
+from llmpas.worlds.ros2.node import ACTIONS, FJT, GRIPPER, LOOK, NAV, SKILL, STATE
 
 log = logging.getLogger(__name__)
+
+
+REQUIRED = (NAV, FJT, SKILL, LOOK)  # what the loop calls (the gripper action is optional)
 
 
 class RobotUnavailableError(Exception):
@@ -41,8 +44,8 @@ class Timeouts:
     """Seconds: to find every server at start, for a goal to be accepted, for a goal to end,
     and for a server that vanished mid-goal to come back."""
 
-    discover: float = 20.0
-    accept: float = 10.0
+    discover: float = 30.0
+    accept: float = 30.0
     goal: float = 300.0
     lost: float = 3.0
 
@@ -58,7 +61,7 @@ class RosRobot:
         on_goal: Callable[[str, str, Any], None] | None = None,
     ) -> None:
         import rclpy
-        from control_msgs.action import FollowJointTrajectory
+        from control_msgs.action import FollowJointTrajectory, GripperCommand
         from llmpas_interfaces.action import Look, Skill
         from llmpas_interfaces.srv import GetSceneState
         from nav2_msgs.action import NavigateToPose
@@ -69,7 +72,13 @@ class RosRobot:
         self.timeouts = timeouts or Timeouts()
         self.on_goal = on_goal or (lambda channel, kind, msg: None)
         self.node = rclpy.create_node("llmpas_client", context=context)
-        self.types = {NAV: NavigateToPose, FJT: FollowJointTrajectory, SKILL: Skill, LOOK: Look}
+        self.types = {
+            NAV: NavigateToPose,
+            FJT: FollowJointTrajectory,
+            GRIPPER: GripperCommand,
+            SKILL: Skill,
+            LOOK: Look,
+        }
         self.clients = {n: ActionClient(self.node, t, n) for n, t in self.types.items()}
         self.state_client = self.node.create_client(GetSceneState, STATE)
         self.executor = SingleThreadedExecutor(context=context)
@@ -91,8 +100,11 @@ class RosRobot:
             log.debug("ROS 2 spinner stopped", exc_info=True)
 
     def shutdown(self) -> None:
+        """Stop spinning; the node goes with its context (never blocks on a busy spinner)."""
         self.executor.shutdown(timeout_sec=2.0)
-        self.node.destroy_node()
+        self.spinner.join(timeout=2.0)
+        if not self.spinner.is_alive():
+            self.node.destroy_node()
 
     # ------------------------------------------------------------------ connection
 
@@ -100,19 +112,19 @@ class RosRobot:
         """Every action server and the state service, within ``timeouts.discover`` (else
         :class:`RobotUnavailableError` naming the first missing one)."""
         deadline = time.monotonic() + self.timeouts.discover
-        for name, client in self.clients.items():
+        for name in REQUIRED:
+            client = self.clients[name]
             if not client.wait_for_server(timeout_sec=max(0.0, deadline - time.monotonic())):
                 raise RobotUnavailableError(
                     f"no ROS 2 action server /{name} ({self.types[name].__module__.split('.')[0]}"
                     f"/{self.types[name].__name__}) within {self.timeouts.discover:g} s"
                 )
-        if not self.state_client.wait_for_service(
-            timeout_sec=max(0.0, deadline - time.monotonic())
-        ):
-            raise RobotUnavailableError(
-                f"no ROS 2 service /{STATE} within {self.timeouts.discover:g} s"
-            )
-        self.sync()
+        while not self.sync():  # the first answer: requests and replies both matched
+            if time.monotonic() > deadline:
+                raise RobotUnavailableError(
+                    f"no answer from the ROS 2 service /{STATE} within {self.timeouts.discover:g} s"
+                )
+            self.state_client.wait_for_service(timeout_sec=0.5)
 
     def sync(self) -> bool:
         """Read the robot's state into the planning scene (False: the robot did not answer)."""
@@ -122,6 +134,7 @@ class RosRobot:
             return False
         future = self.state_client.call_async(GetSceneState.Request())
         if not self._wait(future, self.timeouts.accept):
+            self.state_client.remove_pending_request(future)
             return False
         self.believed = convert.apply_state(self.scene, future.result().state)
         return True
@@ -313,4 +326,4 @@ def _parse(text: str) -> tuple[str, str, bool]:
     return text, "", False
 
 
-__all__ = ["ACTIONS", "RobotUnavailableError", "RosRobot", "Timeouts"]
+__all__ = ["ACTIONS", "REQUIRED", "RobotUnavailableError", "RosRobot", "Timeouts"]

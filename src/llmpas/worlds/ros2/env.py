@@ -9,8 +9,10 @@ deliberately (docs/ros.md).
 
 from __future__ import annotations
 
+import fcntl
 import os
 import random
+import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -74,6 +76,37 @@ def random_domain(rng: random.Random | None = None) -> int:
     return (rng or random.SystemRandom()).randint(1, 101)
 
 
+def reclaim_shared_memory(folder: Path = Path("/dev/shm"), min_age: float = 60.0) -> int:
+    """Remove the Fast DDS shared-memory segments whose process is gone (a killed node's, or one
+    that ended without destroying its participant): ``fastrtps_<id>`` with its ``_el`` lock file,
+    which a live participant holds locked (flock). Files younger than ``min_age`` seconds are
+    left alone (a participant being created). Port segments (per domain, bounded) are kept.
+    The number removed."""
+    removed = 0
+    now = time.time()
+    for lock in folder.glob("fastrtps_*_el"):
+        if lock.name.startswith("fastrtps_port"):
+            continue
+        try:
+            if now - lock.stat().st_mtime < min_age:
+                continue
+            fd = os.open(lock, os.O_RDWR)
+        except OSError:
+            continue
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:  # held: its participant is alive
+            os.close(fd)
+            continue
+        try:
+            lock.with_name(lock.name.removesuffix("_el")).unlink(missing_ok=True)
+            lock.unlink(missing_ok=True)
+            removed += 1
+        finally:
+            os.close(fd)
+    return removed
+
+
 __all__ = [
     "DEFAULT_DOMAIN",
     "DISCOVERY_VAR",
@@ -81,4 +114,5 @@ __all__ = [
     "RosEnv",
     "from_environment",
     "random_domain",
+    "reclaim_shared_memory",
 ]

@@ -7,6 +7,8 @@ in-process):
   path is planned on the robot);
 - ``arm_controller/follow_joint_trajectory`` (``control_msgs/action/FollowJointTrajectory``):
   the arm to the trajectory's last point (collision-free);
+- ``gripper_controller/gripper_cmd`` (``control_msgs/action/GripperCommand``): open, or close
+  on what is between the fingers;
 - ``llmpas/skill`` (``llmpas_interfaces/action/Skill``): move_arm to a grasp, grasp, release,
   open, close, process;
 - ``llmpas/look`` (``llmpas_interfaces/action/Look``): the mast, arm or wrist camera's detections;
@@ -38,20 +40,21 @@ import numpy as np
 
 from llmpas.execution.world import Detection, Observation, SkillResult
 from llmpas.worlds.pybullet.run import PyBulletScenario, resolve, setup_scene
-from llmpas.worlds.pybullet.scene import Scene, open_client
+from llmpas.worlds.pybullet.scene import FINGER_OPEN, Scene, open_client
 from llmpas.worlds.pybullet.values import ArmGoal, Grasp
 from llmpas.worlds.pybullet.world import PyBulletWorld
 from llmpas.worlds.ros2 import convert
-from llmpas.worlds.ros2.env import RosEnv, from_environment
+from llmpas.worlds.ros2.env import RosEnv, from_environment, reclaim_shared_memory
 
 log = logging.getLogger(__name__)
 
 NAV = "navigate_to_pose"
 FJT = "arm_controller/follow_joint_trajectory"
+GRIPPER = "gripper_controller/gripper_cmd"
 SKILL = "llmpas/skill"
 LOOK = "llmpas/look"
 STATE = "llmpas/scene_state"
-ACTIONS = (NAV, FJT, SKILL, LOOK)
+ACTIONS = (NAV, FJT, GRIPPER, SKILL, LOOK)
 
 
 @dataclass(frozen=True)
@@ -82,7 +85,7 @@ class RobotNode:
     """The action servers, service and topics of one simulated robot (an rclpy node)."""
 
     def __init__(self, node: Any, world: PyBulletWorld, faults: Faults | None = None) -> None:
-        from control_msgs.action import FollowJointTrajectory
+        from control_msgs.action import FollowJointTrajectory, GripperCommand
         from llmpas_interfaces.action import Look, Skill
         from llmpas_interfaces.msg import Detections
         from llmpas_interfaces.srv import GetSceneState
@@ -121,10 +124,17 @@ class RobotNode:
                 callback_group=group,
             )
 
-        self.types = {NAV: NavigateToPose, FJT: FollowJointTrajectory, SKILL: Skill, LOOK: Look}
+        self.types = {
+            NAV: NavigateToPose,
+            FJT: FollowJointTrajectory,
+            GRIPPER: GripperCommand,
+            SKILL: Skill,
+            LOOK: Look,
+        }
         self.servers = [
             server(NavigateToPose, NAV, self._navigate),
             server(FollowJointTrajectory, FJT, self._trajectory),
+            server(GripperCommand, GRIPPER, self._gripper),
             server(Skill, SKILL, self._skill),
             server(Look, LOOK, self._look),
         ]
@@ -192,6 +202,8 @@ class RobotNode:
         elif name == FJT:
             feedback.joint_names = list(convert.PANDA_JOINTS)
             feedback.actual.positions = [float(v) for v in self.world.scene.arm_conf()]
+        elif name == GRIPPER:
+            feedback.position = float(self.world.scene.finger_width())
         else:
             feedback.phase = f"running {kind}"
         handle.publish_feedback(feedback)
@@ -226,6 +238,41 @@ class RobotNode:
         if result is not None:
             out.error_code = out.SUCCESSFUL if result.ok else out.PATH_TOLERANCE_VIOLATED
             out.error_string = _text(result)
+        return out
+
+    def _gripper(self, handle: Any) -> Any:
+        """ros2_control's gripper action: open (a position of 4 cm or more; lets go of what
+        it holds) or close with ``max_effort`` (holds an object that ends between the fingers;
+        then the fingers stall on it)."""
+        cmd = handle.request.command
+        scene, config = self.world.scene, self.world.skills.config
+
+        def act() -> SkillResult:
+            if cmd.position >= FINGER_OPEN - 1e-3:
+                if scene.held is not None:
+                    scene.detach()
+                scene.drive_fingers(FINGER_OPEN)
+                scene.step(config.release_steps)
+                return SkillResult.success("opened")
+            scene.drive_fingers(max(0.0, float(cmd.position)), cmd.max_effort or config.grip_force)
+            scene.step(config.close_steps)
+            ee, _ = scene.ee_pose()
+            near = sorted(
+                (float(np.linalg.norm(scene.pose(o.name)[0] - ee)), o.name)
+                for o in scene.config.objects
+                if o.graspable
+            )
+            if scene.finger_width() > 0.01 and near and near[0][0] < 0.05:
+                scene.attach(near[0][1])
+                return SkillResult.success(f"holding {near[0][1]}")
+            return SkillResult.success("closed")
+
+        result, _ = self._execute(handle, GRIPPER, act)
+        out = self.types[GRIPPER].Result()
+        out.position = float(scene.finger_width())
+        out.stalled = scene.held is not None
+        out.reached_goal = result is not None and result.ok and scene.held is None
+        out.effort = float(cmd.max_effort) if out.stalled else 0.0
         return out
 
     def _skill(self, handle: Any) -> Any:
@@ -358,6 +405,7 @@ def serve(
 ) -> None:
     """Build the simulator and serve it until SIGINT/SIGTERM (rclpy's handlers end the spin)."""
     env.apply()
+    reclaim_shared_memory()  # what killed nodes left in /dev/shm
     import rclpy
     from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 
@@ -424,6 +472,7 @@ if __name__ == "__main__":
 __all__ = [
     "ACTIONS",
     "FJT",
+    "GRIPPER",
     "LOOK",
     "NAV",
     "SKILL",

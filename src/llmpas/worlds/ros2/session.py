@@ -45,13 +45,18 @@ from llmpas.worlds.pybullet.run import PyBulletScenario, belief_for, resolve, sc
 from llmpas.worlds.pybullet.scene import Scene, open_client
 from llmpas.worlds.pybullet.streams import Geometry
 from llmpas.worlds.ros2.client import RobotUnavailableError, RosRobot, Timeouts
-from llmpas.worlds.ros2.env import RosEnv, from_environment, random_domain
+from llmpas.worlds.ros2.env import (
+    RosEnv,
+    from_environment,
+    random_domain,
+    reclaim_shared_memory,
+)
 from llmpas.worlds.ros2.record import McapRecorder, type_name
 
 log = logging.getLogger(__name__)
 
 ROBOT_VAR = "LLMPAS_ROS_ROBOT"  # "external": connect to a running robot, start none
-TIMEOUT_VAR = "LLMPAS_ROS_DISCOVER_TIMEOUT"  # seconds to find every server (default 20)
+TIMEOUT_VAR = "LLMPAS_ROS_DISCOVER_TIMEOUT"  # seconds to find every server (default 30)
 BAG = "ros.mcap"
 TOPICS = {  # recorded topics: name -> (package, message)
     "odom": ("nav_msgs.msg", "Odometry"),
@@ -91,8 +96,14 @@ class Ros2Session(PyBulletSession):
         self.bag = McapRecorder(folder / BAG)
         self.robot = RosRobot(context, self.scene, plugin.timeouts, self._record_goal)
         self.world = self.robot  # type: ignore[assignment]  # what PyBulletSession reads
-        self.subscriptions = [self._subscribe(t, *m) for t, m in TOPICS.items()]
-        self.robot.wait_for_servers()
+        self.saved = False
+        try:
+            self.subscriptions = [self._subscribe(t, *m) for t, m in TOPICS.items()]
+            self.robot.wait_for_servers()
+        except BaseException:
+            self.bag.close()
+            self.robot.shutdown()
+            raise
         self.timings["connect"] = time.perf_counter() - t0
         belief = belief_for(self.scene, scenario, np.random.default_rng([self.seed, 3]))
         self.geometry = Geometry(self.scene, np.random.default_rng([self.seed, 1]))
@@ -178,6 +189,10 @@ class Ros2Session(PyBulletSession):
             "achieved": self.achieved(),
             "timings": self.timings,
             "goals": self.robot.goals,
+            "environment": {  # this process's, set before rclpy started
+                k: os.environ.get(k, "")
+                for k in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "ROS_LOG_DIR")
+            },
             "anomalies": self.anomalies,
             "bag": BAG,
             "channels": {
@@ -208,6 +223,7 @@ class Ros2Session(PyBulletSession):
                 written.append(Path(shutil.copyfile(source, folder / f"ros-{name}")))
             elif source.is_dir():
                 shutil.copytree(source, folder / "ros-log", dirs_exist_ok=True)
+        self.saved = True
         return written
 
 
@@ -235,6 +251,9 @@ class Ros2Plugin:
                 plugin = replace(self, timeouts=replace(self.timeouts, discover=float(wait)))
             except ValueError:
                 raise RosError(f"{TIMEOUT_VAR}={wait!r}: not a number of seconds") from None
+        reclaimed = reclaim_shared_memory()  # what killed nodes left in /dev/shm
+        if reclaimed:
+            log.info("removed %d shared-memory segments of ended ROS 2 processes", reclaimed)
         folder = Path(tempfile.mkdtemp(prefix="llmpas-ros2-"))
         external = os.environ.get(ROBOT_VAR, "").strip().lower() == "external"
         try:
@@ -253,13 +272,19 @@ class Ros2Plugin:
             try:
                 session = Ros2Session(chosen, plugin, options, client, context, folder)
             except RobotUnavailableError as e:
-                hint = "" if external else " (the robot node did not come up)"
+                hint = "" if external else f" (the robot node did not come up: {folder}/robot.log)"
                 raise RosError(f"{e}{hint}; ROS_DOMAIN_ID={env.domain}") from None
             try:
                 yield session
             finally:
                 session.bag.close()
                 session.robot.shutdown()
+        # the session's folder: copied into the run folder by save(); else kept (an interrupted
+        # run without a run folder still has its recording there)
+        if session.saved:
+            shutil.rmtree(folder, ignore_errors=True)
+        else:
+            log.info("the ROS 2 recording and logs are in %s", folder)
 
 
 @contextmanager
