@@ -140,3 +140,18 @@ def test_bad_options_are_one_line_errors(tmp_path: Path, capsys: pytest.CaptureF
     assert "no pddlstream package there" in capsys.readouterr().err
     assert main(["bench", "pddlstream", str(tmp_path), "--instance", "x.py -n 4"]) == 2
     assert "no such script" in capsys.readouterr().err
+
+
+def test_a_script_runs_from_the_top_of_its_package(tmp_path: Path) -> None:
+    """As PDDLStream's examples/pybullet/ beside the pybullet module: a package in DIR named
+    as an installed module does not shadow it (the run starts above DIR's package)."""
+    examples = tmp_path / "examples"
+    for pkg in ("", "numpy", "demo"):
+        (examples / pkg).mkdir(parents=True, exist_ok=True)
+        (examples / pkg / "__init__.py").write_text("")
+    (examples / "numpy" / "__init__.py").write_text("raise ImportError('shadowed')\n")
+    (examples / "demo" / "run.py").write_text(POINTS)
+    config = PdsBenchConfig(examples, seeds=1, timeout=120, out_dir=tmp_path / "o")
+    (trial,) = run_bench(config, quiet()).trials
+    assert trial.instance == "demo/run.py"
+    assert trial.solved and trial.validated, trial.note

@@ -1,5 +1,6 @@
-"""The skeleton queue of focused planning: an optimistic plan whose stream binding failed is kept
-and drawn again with more effort before the task is searched again."""
+"""The ``skeletons`` algorithm (focused planning with a skeleton queue, PDDLStream's adaptive): an
+optimistic plan whose stream binding failed is kept and drawn again with more effort before the
+task is searched again. ``focused`` (the default) keeps none: the counts before the queue."""
 
 from __future__ import annotations
 
@@ -23,6 +24,9 @@ STREAMS = """
   (:stream sample-spot :inputs (?i) :domain (Item ?i) :outputs (?s) :certified (Spot ?i ?s))
   (:stream test-stable :inputs (?i ?s) :domain (Spot ?i ?s) :certified (Stable ?i ?s)))
 """
+
+
+ALGORITHM = "skeletons"
 
 
 class Counting(FastDownward):
@@ -61,7 +65,9 @@ def test_a_failed_binding_is_drawn_again_before_searching_again() -> None:
     in the next iteration, which holds: no second search (before the queue: 4 searches, the
     task searched again with the evaluated instances disabled, then with them re-enabled)."""
     Counting.searches = 0
-    result = solve(problem(bad=1), PlannerConfig(max_time=60), classical=Counting())
+    result = solve(
+        problem(bad=1), PlannerConfig(algorithm=ALGORITHM, max_time=60), classical=Counting()
+    )
     assert result.plan is not None
     assert [(s.action, s.args[0]) for s in result.plan.steps] == [("put", "box")]
     assert result.plan.objects[result.plan.steps[0].args[1]] == 1
@@ -75,8 +81,20 @@ def test_the_queue_interleaves_draws_with_searches_and_drops_a_spent_skeleton() 
     after three draws, and new searches find the plan (20 searches; before: 30)."""
     for bad, searches in ((3, 3), (8, 20)):
         Counting.searches = 0
-        result = solve(problem(bad=bad), PlannerConfig(max_time=120), classical=Counting())
+        result = solve(
+            problem(bad=bad), PlannerConfig(algorithm=ALGORITHM, max_time=120), classical=Counting()
+        )
         assert result.plan is not None
         assert result.plan.objects[result.plan.steps[0].args[1]] == bad
         assert Counting.searches == searches
         assert result.stats.stream_calls["sample-spot"] == bad + 1
+
+
+def test_focused_keeps_no_skeleton() -> None:
+    """The same problems with ``focused``: searched again after each failed binding."""
+    for bad, searches in ((1, 4), (3, 10), (8, 30)):
+        Counting.searches = 0
+        config = PlannerConfig(algorithm="focused", max_time=120)
+        result = solve(problem(bad=bad), config, classical=Counting())
+        assert result.plan is not None
+        assert Counting.searches == searches

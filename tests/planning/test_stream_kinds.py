@@ -22,7 +22,7 @@ from llmpas.planning import PlannerConfig, PlanStatus, solve
 from llmpas.planning.compile import function_values
 from llmpas.planning.result import Plan, PlanStep
 
-ALGORITHMS = ("focused", "incremental")
+ALGORITHMS = ("focused", "skeletons", "incremental")
 
 DOMAIN = """
 (define (domain table1d)

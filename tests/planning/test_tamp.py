@@ -27,7 +27,7 @@ from llmpas.planning.downward import (
 from llmpas.planning.result import Algorithm
 
 DATA = Path(__file__).parent / "data"
-ALGORITHMS: tuple[Algorithm, ...] = ("focused", "incremental")
+ALGORITHMS: tuple[Algorithm, ...] = ("focused", "skeletons", "incremental")
 
 
 def make_problem(

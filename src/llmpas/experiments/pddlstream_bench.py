@@ -59,6 +59,7 @@ from llmpas.experiments.jobs import (
     run_jobs,
 )
 from llmpas.files import atomic_write, save_figure, write_csv
+from llmpas.pddlstream.runner import package_root
 
 PLANNERS = ("llmpas", "pddlstream")
 KILL_GRACE = 5.0  # seconds between SIGTERM and SIGKILL of a trial past its timeout
@@ -196,7 +197,9 @@ def _command(p: Payload, summary: Path) -> tuple[list[str], dict[str, str], str]
         boot = "import sys; from llmpas.cli import main; sys.exit(main())"
         argv = [sys.executable, "-c", boot, "pddlstream", "--seed", str(p.seed)]
         argv += ["--summary", str(summary), script, *p.instance.args]
-        return argv, env, str(Path(p.folder))
+        # from the top of the script's package, as python -m: the folder a script is in may
+        # hold packages named as installed ones (examples/pybullet/ and pybullet)
+        return argv, env, str(package_root(Path(script).resolve())[0])
     assert p.pddlstream is not None
     env["PYTHONPATH"] = os.pathsep.join(x for x in (p.pddlstream, env.get("PYTHONPATH", "")) if x)
     python = p.python or sys.executable

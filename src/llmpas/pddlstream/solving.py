@@ -34,6 +34,9 @@ log = logging.getLogger(__name__)
 FOCUSED_ALGORITHMS = ("focused", "binding", "adaptive")
 ALGORITHMS = ("incremental", *FOCUSED_ALGORITHMS)
 DEFAULT_ALGORITHM = "adaptive"
+#: llmpas's algorithm per PDDLStream name: its adaptive algorithm keeps a skeleton queue, its
+#: focused and binding ones do not
+_ALGORITHM = {"incremental": "incremental", "adaptive": "skeletons"}
 DEFAULT_MAX_TIME = 300.0  # seconds, when a script says max_time=INF: a safety net
 
 # A generator's ``None`` ends the call without an output, as in PDDLStream (one call is one
@@ -112,7 +115,7 @@ def solve(
         if key not in _QUIET and options[key] not in (None, False, (), []):
             ctx.notes.ignored(f"solve({key}=...)", "no meaning for llmpas's planner")
     config = PlannerConfig(
-        algorithm="incremental" if algorithm == "incremental" else "focused",
+        algorithm=_ALGORITHM.get(algorithm, "focused"),
         defer=False,
         max_time=DEFAULT_MAX_TIME if math.isinf(max_time) else float(max_time),
         search_time=DEFAULT_MAX_TIME if math.isinf(max_time) else float(max_time),

@@ -63,6 +63,12 @@ ALGORITHMS: Mapping[str, Entry] = _table(
         supports=frozenset({"fluents"}),
     ),
     Entry(
+        "skeletons",
+        "llmpas.planning.tamp:plan_skeletons",
+        "focused, with failed plans kept as skeletons and drawn again (PDDLStream's adaptive)",
+        supports=frozenset({"fluents"}),
+    ),
+    Entry(
         "incremental",
         "llmpas.planning.tamp:plan_incremental",
         "every stream instance evaluated once per level, then a search",

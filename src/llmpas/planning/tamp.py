@@ -7,6 +7,13 @@ predicates) says which stream instances it needs; only those are evaluated, prod
 evaluated instance is disabled until a search fails (then all are re-enabled); repeat until a plan
 needs no unevaluated stream.
 
+``skeletons``: ``focused`` with a skeleton queue, as PDDLStream's adaptive algorithm: an
+evaluated plan that does not hold (a binding failed, or its values fail a test the plan reads)
+is kept as a *skeleton* and drawn again with growing effort, one skeleton per iteration before
+the search (:func:`_resample`): a failed binding gets new samples before the task is searched
+again. Not the default: measured faster on PDDLStream's pybullet/tamp, slower on the 2-D packed
+family (the values drawn grow the closures; docs/pddlstream.md).
+
 ``incremental``: evaluate every stream instance once per level on the real facts, then search.
 
 Plan quality (:mod:`~llmpas.planning.quality`): the config's quality names the search for the
@@ -336,6 +343,16 @@ def _shared_verdict(run: Run, result: PlanResult) -> PlanResult:
 
 def plan_focused(run: Run) -> PlanResult:
     """The ``focused`` algorithm (see the module's documentation)."""
+    return _focused(run, queue=False)
+
+
+def plan_skeletons(run: Run) -> PlanResult:
+    """The ``skeletons`` algorithm: ``focused`` with the skeleton queue (module documentation),
+    as PDDLStream's adaptive algorithm; what ``llmpas.pddlstream`` runs for ``adaptive``."""
+    return _focused(run, queue=True)
+
+
+def _focused(run: Run, queue: bool) -> PlanResult:
     store = run.store
     evaluated: _Evaluated | None = None  # the last plan whose streams were evaluated
     skeletons: list[_Evaluated] = []  # evaluated plans that did not hold: to draw again
@@ -351,7 +368,7 @@ def plan_focused(run: Run) -> PlanResult:
         depth = run.depth
         closure, opt = _closure(run)
         realized = None if evaluated is None else _realize(run, evaluated, opt)
-        if realized is None and evaluated is not None and _resamplable(evaluated):
+        if queue and realized is None and evaluated is not None and _resamplable(evaluated):
             skeletons = [evaluated, *skeletons][:_MAX_SKELETONS]
         if realized is None and skeletons and run.depth is None:
             realized = _resample(run, skeletons, opt)
