@@ -20,7 +20,7 @@ from llmpas.experiments.llm_bench import (
     run_setting,
 )
 from llmpas.reasoning.backends.llamacpp import LlamaSettings, free_cores, settings_before
-from llmpas.reasoning.backends.llamacpp_worker import KVState, KVStates
+from llmpas.reasoning.backends.llamacpp_worker import TAIL, KVState, KVStates
 
 from ..tiny_model import needs_tiny_model, smollm2_path
 
@@ -31,22 +31,26 @@ def state(*tokens: int) -> KVState:
     return KVState(np.array(tokens), bytes(len(tokens)))
 
 
+END = tuple(range(100, 100 + TAIL))  # a prompt's last tokens, always evaluated
+MORE = tuple(range(200, 210 + TAIL))  # what a repair adds to its conversation
+
+
 def test_kv_states_give_the_longest_shared_prefix_and_stay_bounded() -> None:
     states = KVStates(2)
     assert states  # Llama tests ``if self.cache``: an empty one still counts
     with pytest.raises(KeyError):
-        states[[1, 2]]
+        states[[1, 2, *END]]
     states[[0]] = state(1, 2, 3)  # keyed by what was evaluated, not by the prompt
     states[[0]] = state(1, 2, 9, 9)
-    found = states[[1, 2, 9, 5, 6]]  # cut to the shared prefix, holding 4 tokens
+    found = states[[1, 2, 9, 5, *END]]  # cut to the shared prefix, holding 4 tokens
     assert list(found.input_ids) == [1, 2, 9] and found.saved == 4
-    assert list(states[[1, 2, 3, 4]].input_ids) == [1, 2]  # the last two: evaluated
-    assert list(states[[1, 2, 3, 4, 5]].input_ids) == [1, 2, 3]
+    assert list(states[[1, 2, 3, *END]].input_ids) == [1, 2, 3]
+    assert list(states[[1, 2, 3, *END[1:]]].input_ids) == [1, 2]  # the last TAIL: evaluated
     with pytest.raises(KeyError):
-        states[[7, 1, 2]]  # no shared prefix
+        states[[7, 1, 2, *END]]  # no shared prefix
     states[[0]] = state(5)  # the least recently used (1, 2, 9, 9) goes
     assert len(states.states) == 2 and [1, 2, 9, 9] not in states
-    assert list(states[[1, 2, 9, 9, 9]].input_ids) == [1, 2]
+    assert list(states[[1, 2, 9, *END]].input_ids) == [1, 2]
 
 
 def test_threads_are_the_free_cores_shared_among_jobs(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -68,15 +72,16 @@ def measured(setting: str, *calls: tuple[int, tuple[int, ...]]) -> list[Measured
     ]
 
 
-def test_least_evaluated_reuses_any_earlier_prefix_but_the_last_two_tokens() -> None:
+def test_least_evaluated_reuses_any_earlier_prefix_but_the_last_tokens() -> None:
+    first = (1, 2, 3, *END)
     calls = measured(
         "defaults",
-        (4, (1, 2, 3, 4, 40)),  # a prompt of 4 tokens, then its answer (40)
-        (4, (1, 5, 6, 7, 41)),
-        (7, (1, 2, 3, 4, 40, 7, 8, 42)),  # the first conversation goes on (a repair)
-        (4, (1, 2, 3, 4, 43)),  # the first prompt again: its last two are evaluated
+        (len(first), (*first, 40)),  # a prompt, then its answer (40)
+        (len(first), (1, 5, 6, *END, 41)),
+        (len(first) + 1 + len(MORE), (*first, 40, *MORE, 42)),  # the conversation goes on
+        (len(first), (*first, 43)),  # the first prompt again: its last TAIL are evaluated
     )
-    assert least_evaluated(calls) == [4, 3, 2, 2]
+    assert least_evaluated(calls) == [len(first), len(first) - 1, len(MORE), TAIL]
 
 
 @needs_tiny_model

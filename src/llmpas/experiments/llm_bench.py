@@ -188,8 +188,8 @@ def _measured(name: str, number: int, call: Call, ok: dict[str, Any], seconds: f
 
 def least_evaluated(measured: Sequence[Measured]) -> list[int]:
     """Per call, the prompt tokens no earlier call evaluated (the longest prefix shared with
-    what an earlier call evaluated is reused), but its last two, which llama.cpp evaluates for
-    the logits (:data:`~llmpas.reasoning.backends.llamacpp_worker.TAIL`)."""
+    what an earlier call evaluated is reused), but its last few, which are evaluated so that the
+    logits stay those of a batch (:data:`~llmpas.reasoning.backends.llamacpp_worker.TAIL`)."""
     from llmpas.reasoning.backends.llamacpp_worker import TAIL
 
     least = []
