@@ -39,6 +39,7 @@ BENCHMARKS: Mapping[str, str] = MappingProxyType(
         "perturbation": "llmpas.experiments.perturbation:BENCHMARK",
         "prompting": "llmpas.experiments.prompting:BENCHMARK",
         "blocksworld": "llmpas.experiments.blocksworld:BENCHMARK",
+        "llm": "llmpas.experiments.llm_bench:BENCHMARK",
         "report": "llmpas.experiments.webreport:BENCHMARK",
         "ros": "llmpas.experiments.ros_overhead:BENCHMARK",
     }

@@ -22,6 +22,7 @@ import enum
 import hashlib
 import json
 import logging
+import os
 import re
 from collections import Counter
 from collections.abc import Callable, Iterator, Mapping, Sequence
@@ -209,7 +210,9 @@ class LocalExecutor:
             for job in jobs:
                 yield Event(job.key, Outcome.RAN, work(job.payload))
             return
-        pool = ProcessPoolExecutor(max_workers=self.workers)
+        pool = ProcessPoolExecutor(
+            max_workers=self.workers, initializer=share_cores, initargs=(self.workers,)
+        )
         try:
             pending: dict[Future[Mapping[str, Any]], str] = {
                 pool.submit(work, job.payload): job.key for job in jobs
@@ -220,6 +223,14 @@ class LocalExecutor:
                     yield Event(pending.pop(future), Outcome.RAN, future.result())
         finally:  # an error, Ctrl-C or a closed iterator: drop what has not started
             pool.shutdown(wait=True, cancel_futures=True)
+
+
+def share_cores(jobs: int) -> None:
+    """In a worker process of ``jobs``: a local model there takes its share of the free cores
+    (:func:`~llmpas.reasoning.backends.llamacpp.free_cores`), not all of them."""
+    from llmpas.reasoning.backends.llamacpp import JOBS_VARIABLE
+
+    os.environ[JOBS_VARIABLE] = str(jobs)
 
 
 def make_executor(spec: ExecutorSpec, workers: int = 1) -> Executor:

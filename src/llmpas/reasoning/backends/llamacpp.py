@@ -22,7 +22,7 @@ import tempfile
 import threading
 import time
 import weakref
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import IO, Any
@@ -37,41 +37,77 @@ MAX_MESSAGE = 8 * 1024 * 1024  # bytes of one answer from the worker
 STDERR_TAIL = 300  # characters of the worker's stderr quoted when it dies
 
 
+JOBS_VARIABLE = "LLMPAS_JOBS"  # how many jobs share this machine's cores (set by --jobs)
+KV_STATES = 8  # KV states kept by default (~28 kB a token each for the 1.5B model)
+
+
+def free_cores(jobs: int | None = None) -> int:
+    """This process's share of the cores nobody else is using: the cores it may run on, less
+    the load of the last minute (another job's busy thread makes a llama.cpp thread wait for
+    it: with the other core busy, 2 threads generated 0.3 tokens/s where 1 made 12), divided
+    among ``jobs`` (default: ``$LLMPAS_JOBS``, else 1); at least 1."""
+    if jobs is None:
+        value = os.environ.get(JOBS_VARIABLE, "")
+        jobs = int(value) if value.isdigit() and int(value) > 0 else 1
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    cores = cores or 1
+    busy = os.getloadavg()[0] if hasattr(os, "getloadavg") else 0.0
+    return max(1, int(cores - busy + 0.5) // max(1, jobs))
+
+
 @dataclass(frozen=True)
 class LlamaSettings:
     """How the worker loads the model. ``extra_bufts``: let llama.cpp repack weights into its
-    extra buffer types (AMX, ...); off by default, since the AMX path crashes on some CPUs."""
+    extra buffer types (AMX, ...); off by default, since the AMX path crashes on some CPUs.
+    ``n_threads``: default :func:`free_cores` when the settings are made. ``kv_states``: KV
+    states kept across answers, so that no prompt prefix is evaluated twice (0: only the state
+    of the last answer, as llama-cpp-python keeps it)."""
 
     n_ctx: int = 4096
-    n_threads: int = 1
+    n_threads: int = field(default_factory=free_cores)
     seed: int = 0
     extra_bufts: bool = False
+    kv_states: int = KV_STATES
     load_timeout: float = 300.0  # seconds to load the model
     timeout: float = 600.0  # seconds for one answer
 
     def __post_init__(self) -> None:
         if self.n_ctx < 1 or self.n_threads < 1:
             raise ValueError(f"n_ctx, n_threads must be >= 1, got {self.n_ctx}, {self.n_threads}")
+        if self.kv_states < 0:
+            raise ValueError(f"kv_states must be >= 0, got {self.kv_states}")
         if not (self.load_timeout > 0 and self.timeout > 0):
             raise ValueError("load_timeout and timeout must be > 0 seconds")
+
+
+def settings_before(settings: LlamaSettings | None = None) -> LlamaSettings:
+    """``settings`` (default: the defaults) as they were before #30: one thread, only the
+    last answer's KV state kept."""
+    return replace(settings or LlamaSettings(), n_threads=1, kv_states=0)
 
 
 class LlamaCppBackend:
     """A local chat model; ``request.grammar`` (GBNF) constrains decoding exactly.
 
-    ``n_threads`` defaults to 1: with 2 threads generation collapses when the other core is busy.
+    ``n_threads`` defaults to the free cores (:func:`free_cores`): with 2 threads generation
+    collapses when the other core is busy. A response's ``meta`` says how many prompt tokens
+    were evaluated and reused, and the seconds of the prompt and of the whole answer.
     """
 
     def __init__(
         self,
         model_path: str | os.PathLike[str],
         n_ctx: int = 4096,
-        n_threads: int = 1,
+        n_threads: int | None = None,
         seed: int = 0,
         settings: LlamaSettings | None = None,
     ) -> None:
         self.model_path = Path(model_path)
-        self.settings = settings or LlamaSettings(n_ctx=n_ctx, n_threads=n_threads, seed=seed)
+        if settings is None:
+            settings = LlamaSettings(n_ctx=n_ctx, seed=seed)
+            if n_threads is not None:
+                settings = replace(settings, n_threads=n_threads)
+        self.settings = settings
         self.seed = self.settings.seed
         self.name = f"llama-cpp:{self.model_path.stem}"
         if not self.model_path.is_file():
@@ -105,22 +141,27 @@ class LlamaCppBackend:
             worker.stop()
 
     def complete(self, request: Request) -> Response:
+        ok, latency = self.ask("complete", request_kwargs(request, self.seed))
+        return _response(self.name, ok, latency)
+
+    def ask(self, kind: str, body: dict[str, Any]) -> tuple[dict[str, Any], float]:
+        """One request of ``kind`` (a key of the worker's ``REQUESTS``) to the worker: its
+        answer's ``ok`` object and the seconds it took; an :class:`LLMError` when it failed."""
         if not self._lock.acquire(blocking=False):
-            # an earlier call was abandoned (a caller's deadline) and still waits: end it
-            self.close()
+            self.close()  # an abandoned call still waits: end it
             if not self._lock.acquire(timeout=self.settings.timeout):
                 raise LLMError(f"{self.name}: the model's process is busy with another request")
         try:
-            return self._complete(request)
+            return self._ask(kind, body)
         finally:
             self._lock.release()
 
-    def _complete(self, request: Request) -> Response:
+    def _ask(self, kind: str, body: dict[str, Any]) -> tuple[dict[str, Any], float]:
         worker = self._worker
         if worker is None or not worker.alive():
             worker = self._start()
         self._requests += 1
-        message = {"id": self._requests, "complete": _kwargs(request, self.seed)}
+        message = {"id": self._requests, kind: body}
         start = time.perf_counter()
         try:
             answer = worker.ask(message, self.settings.timeout, "answering")
@@ -128,21 +169,17 @@ class LlamaCppBackend:
             if self._worker is worker:
                 self.close()
             raise
-        latency = time.perf_counter() - start
+        seconds = time.perf_counter() - start
         if answer.get("id") != message["id"]:
             self.close()
             raise LLMError(f"{self.name}: the model's process answered another request")
         if "error" in answer:
             raise LLMError(f"{self.name}: {answer['error']}")
-        ok = answer["ok"]
-        return Response(
-            text=str(ok.get("text") or ""),
-            model=self.name,
-            prompt_tokens=int(ok.get("prompt_tokens") or 0),
-            completion_tokens=int(ok.get("completion_tokens") or 0),
-            latency=latency,
-            meta={"finish_reason": ok.get("finish_reason")},
-        )
+        ok = answer.get("ok")
+        if not isinstance(ok, dict):
+            self.close()
+            raise LLMError(f"{self.name}: the model's process sent a malformed message")
+        return ok, seconds
 
     def _start(self) -> _Worker:
         self.close()
@@ -154,6 +191,7 @@ class LlamaCppBackend:
             "n_threads": self.settings.n_threads,
             "seed": self.settings.seed,
             "extra_bufts": self.settings.extra_bufts,
+            "kv_states": self.settings.kv_states,
         }
         try:
             answer = worker.ask({"load": load}, self.settings.load_timeout, "loading the model")
@@ -271,7 +309,26 @@ def _kill(process: subprocess.Popen[bytes], conn: Connection, stderr: IO[bytes])
     stderr.close()
 
 
-def _kwargs(request: Request, seed: int) -> dict[str, Any]:
+def _response(name: str, ok: dict[str, Any], latency: float) -> Response:
+    return Response(
+        text=str(ok.get("text") or ""),
+        model=name,
+        prompt_tokens=int(ok.get("prompt_tokens") or 0),
+        completion_tokens=int(ok.get("completion_tokens") or 0),
+        latency=latency,
+        meta={"finish_reason": ok.get("finish_reason"), **_measured(ok)},
+    )
+
+
+MEASURED = ("prompt_evaluated", "prompt_reused", "prompt_seconds", "seconds")
+
+
+def _measured(ok: dict[str, Any]) -> dict[str, float]:
+    """What the worker measured of one answer (numbers only)."""
+    return {k: v for k in MEASURED if isinstance(v := ok.get(k), int | float)}
+
+
+def request_kwargs(request: Request, seed: int) -> dict[str, Any]:
     kwargs: dict[str, Any] = {
         "messages": [{"role": m.role, "content": m.content} for m in request.messages],
         "temperature": request.temperature,

@@ -6,7 +6,18 @@ cost one request, not the caller's run. The worker speaks JSON messages over the
 (a :class:`multiprocessing.connection.Connection`), one request at a time:
 
 - ``{"load": {...}}`` -> ``{"ready": seconds}`` or ``{"error": "..."}`` (the first message);
-- ``{"id": N, "complete": {...}}`` -> ``{"id": N, "ok": {...}}`` or ``{"id": N, "error": "..."}``.
+- ``{"id": N, KIND: {...}}`` -> ``{"id": N, "ok": {...}}`` or ``{"id": N, "error": "..."}``, one
+  request of a kind in :data:`REQUESTS` (``complete``: a chat completion).
+
+KV states (``kv_states`` > 0): after each answer the worker keeps llama.cpp's KV state of the
+tokens it evaluated (at most ``kv_states`` of them, the least recently used dropped); a request
+starts from an empty context into which the kept state sharing the longest prefix with its
+prompt is restored, cut to that prefix, so a prefix evaluated once (the system prompt and what
+a world and a method fix, the conversation of a consultation: its goals prompt and answer under
+the repair) is not evaluated again, whichever request came between. An answer is then the one a
+fresh evaluation of its prompt gives, whatever came before (llama-cpp-python's own reuse, in
+place, is not: see ``forget``). Each answer says how many prompt tokens were evaluated and how
+many reused, and the seconds of each phase.
 
 It exits when the socket closes or its parent is gone, and ignores Ctrl-C (the parent decides).
 Weights are not repacked into llama.cpp's extra buffer types unless asked (``extra_bufts``): the
@@ -15,18 +26,28 @@ AMX repacking path crashes on some CPUs with AMX (llama.cpp issue #20824).
 
 from __future__ import annotations
 
+import ctypes
 import json
 import os
 import signal
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections import OrderedDict
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
+from dataclasses import dataclass
 from multiprocessing.connection import Connection
+from types import MappingProxyType
 from typing import Any
 
 PARENT_POLL = 0.5  # seconds between checks that the parent is still there
+#: Prompt tokens always evaluated after a kept state: llama.cpp evaluates a few tokens with
+#: other kernels than a batch, and the logits differ in their last bits (measured: the last 1,
+#: 2, 3 or 4 tokens of a prompt evaluated after the rest gave other logits than the prompt in
+#: one batch, and another greedy answer; 8 and 16 gave the same logits, bit for bit, with the
+#: offline model, 2 to 64 with SmolLM2)
+TAIL = 8
 
 
 def main(argv: list[str]) -> int:
@@ -60,13 +81,173 @@ def _exit_with_parent(parent: int) -> None:
     threading.Thread(target=watch, name="parent-watch", daemon=True).start()
 
 
-def _load(model_path: str, n_ctx: int, n_threads: int, seed: int, extra_bufts: bool) -> Any:
+def _load(
+    model_path: str,
+    n_ctx: int,
+    n_threads: int,
+    seed: int,
+    extra_bufts: bool,
+    kv_states: int = 0,
+) -> Any:
     import llama_cpp
 
     with _model_params(llama_cpp, extra_bufts):
-        return llama_cpp.Llama(
-            model_path=model_path, n_ctx=n_ctx, n_threads=n_threads, seed=seed, verbose=False
+        llama = _model_class()(
+            model_path=model_path,
+            n_ctx=n_ctx,
+            n_threads=n_threads,
+            n_threads_batch=n_threads,
+            seed=seed,
+            verbose=False,
         )
+    if kv_states > 0:
+        llama.set_cache(KVStates(kv_states))
+    return llama
+
+
+@dataclass(frozen=True)
+class KVState:
+    """llama.cpp's KV state of sequence 0 after evaluating ``input_ids`` (``Llama.save_state``
+    keeps the logits too: 311 MB for this model, where these bytes are ~28 kB a token)."""
+
+    input_ids: Any  # numpy array of the tokens evaluated (``Llama`` reads ``.input_ids``)
+    data: bytes
+    saved: int = -1  # tokens ``data`` holds when more than ``input_ids`` (-1: as many)
+
+
+class KVStates:
+    """At most ``capacity`` :class:`KVState`, keyed by their tokens; ``states[prompt]`` is the
+    one sharing the longest prefix with ``prompt`` (KeyError: none shares a token). It is what
+    ``Llama`` calls its cache (``Llama.set_cache``): it looks the prompt up before an answer and
+    stores the state after it."""
+
+    def __init__(self, capacity: int) -> None:
+        if capacity < 1:
+            raise ValueError(f"capacity must be >= 1, got {capacity}")
+        self.capacity = capacity
+        self.states: OrderedDict[tuple[int, ...], KVState] = OrderedDict()
+
+    def __bool__(self) -> bool:  # ``Llama`` tests ``if self.cache``: an empty one still is
+        return True
+
+    def __contains__(self, tokens: Sequence[int]) -> bool:
+        return tuple(tokens) in self.states
+
+    def __getitem__(self, tokens: Sequence[int]) -> KVState:
+        """The kept state sharing the longest prefix with ``tokens``, cut to that prefix but
+        the last :data:`TAIL` tokens of ``tokens``, which are evaluated (for the logits)."""
+        wanted = list(tokens)
+        best, length = None, 0
+        for key in self.states:
+            n = _prefix(key, wanted)
+            if n > length or (n == length and best is not None):  # ties: the latest
+                best, length = key, n
+        length = min(length, len(wanted) - TAIL)
+        if best is None or length <= 0:
+            raise KeyError("no kept state shares a prefix")
+        self.states.move_to_end(best)
+        found = self.states[best]
+        return KVState(found.input_ids[:length], found.data, len(found.input_ids))
+
+    def __setitem__(self, tokens: Sequence[int], state: KVState) -> None:
+        key = tuple(int(t) for t in state.input_ids)  # what was evaluated, not what was asked
+        self.states.pop(key, None)
+        self.states[key] = state
+        while len(self.states) > self.capacity:
+            self.states.popitem(last=False)
+
+
+def _prefix(a: Sequence[int], b: Sequence[int]) -> int:
+    n = 0
+    for x, y in zip(a, b, strict=False):
+        if x != y:
+            break
+        n += 1
+    return n
+
+
+def _model_class() -> Any:
+    """``llama_cpp.Llama`` keeping KV states of sequence 0 only (no logits) and counting what
+    it evaluates: the first ``eval`` of an answer is its prompt (the tokens not reused)."""
+    import llama_cpp
+    import numpy as np
+
+    class Model(llama_cpp.Llama):
+        meter: Meter | None = None
+
+        def save_state(self) -> KVState:  # type: ignore[override]
+            return KVState(np.array(self.input_ids[: self.n_tokens]), self._seq_data())
+
+        def load_state(self, state: KVState) -> None:  # type: ignore[override]
+            """The KV cells of ``state.input_ids`` restored as a fresh evaluation lays them
+            out (cells 0..n-1, the next token in cell n): a state holding more is restored,
+            cut and restored again, since the layout of the cells changes the sums of the
+            attention in their last bits, and with them a greedy answer."""
+            ctx = self._ctx.ctx
+            memory = llama_cpp.llama_get_memory(ctx)
+            n = len(state.input_ids)
+            data = state.data
+            if state.saved > n:
+                data = self._cut(data, n)
+            llama_cpp.llama_memory_clear(memory, True)
+            self.n_tokens = 0
+            if not data or not self._restore(data):
+                llama_cpp.llama_memory_clear(memory, True)
+                return  # nothing restored: the prompt is evaluated in full
+            self.input_ids[:n] = state.input_ids
+            self.n_tokens = n
+            self._requires_eval = True
+
+        def forget(self) -> None:
+            """An empty context. llama-cpp-python reuses in place the prefix the last answer
+            shares with the next prompt; a greedy answer then differs from a fresh evaluation
+            of its prompt in places (measured: the same prompt asked twice in a row, its last
+            token evaluated again on its own after the answer's cells were removed)."""
+            llama_cpp.llama_memory_clear(llama_cpp.llama_get_memory(self._ctx.ctx), True)
+            self.n_tokens = 0
+
+        def _restore(self, data: bytes) -> bool:
+            buffer = (ctypes.c_uint8 * len(data)).from_buffer_copy(data)
+            return bool(llama_cpp.llama_state_seq_set_data(self._ctx.ctx, buffer, len(data), 0))
+
+        def _cut(self, data: bytes, n: int) -> bytes:
+            """The state ``data`` holding only its first ``n`` tokens (b"" when it fails)."""
+            memory = llama_cpp.llama_get_memory(self._ctx.ctx)
+            llama_cpp.llama_memory_clear(memory, True)
+            if not self._restore(data):
+                return b""
+            llama_cpp.llama_memory_seq_rm(memory, 0, n, -1)
+            return self._seq_data()
+
+        def _seq_data(self) -> bytes:
+            ctx = self._ctx.ctx
+            size = llama_cpp.llama_state_seq_get_size(ctx, 0)
+            buffer = (ctypes.c_uint8 * size)()
+            n = llama_cpp.llama_state_seq_get_data(ctx, buffer, size, 0)
+            return bytes(buffer)[:n]
+
+        def eval(self, tokens: Sequence[int]) -> None:
+            meter = self.meter
+            start = time.perf_counter()
+            super().eval(tokens)
+            if meter is not None:
+                meter.evaluated(len(tokens), time.perf_counter() - start)
+
+    return Model
+
+
+@dataclass
+class Meter:
+    """What one answer evaluated: its prompt (the first evaluation), then the generation."""
+
+    prompt_evaluated: int = 0
+    prompt_seconds: float = 0.0
+    evaluations: int = 0
+
+    def evaluated(self, tokens: int, seconds: float) -> None:
+        if self.evaluations == 0:
+            self.prompt_evaluated, self.prompt_seconds = tokens, seconds
+        self.evaluations += 1
 
 
 @contextmanager
@@ -92,25 +273,87 @@ def _model_params(llama_cpp: Any, extra_bufts: bool) -> Iterator[None]:
 
 
 def _answer(llama: Any, message: dict[str, Any]) -> dict[str, Any]:
+    """The answer to one request: ``ok`` from its kind's handler, or one ``error`` line."""
     ident = message.get("id")
-    kwargs = dict(message["complete"])
+    kinds = [k for k in REQUESTS if k in message]
+    if len(kinds) != 1:
+        return {"id": ident, "error": f"a request has one kind of {', '.join(REQUESTS)}"}
     try:
-        if kwargs.get("grammar") is not None:
-            kwargs["grammar"] = _grammar(llama, kwargs["grammar"])
-        out = llama.create_chat_completion(**kwargs)
+        return {"id": ident, "ok": REQUESTS[kinds[0]](llama, message[kinds[0]])}
     except Exception as err:  # one request failed; the worker goes on
         return {"id": ident, "error": _line(err)}
+
+
+def _complete(llama: Any, body: dict[str, Any]) -> dict[str, Any]:
+    """A chat completion; what it evaluated and reused, and the seconds of each phase."""
+    kwargs = dict(body)
+    with_tokens = bool(kwargs.pop("with_tokens", False))  # the benchmark's audit of reuse
+    if kwargs.get("grammar") is not None:
+        kwargs["grammar"] = _grammar(llama, kwargs["grammar"])
+    if isinstance(llama.cache, KVStates):
+        llama.forget()  # only a kept state, restored as a fresh evaluation, is reused
+    meter = llama.meter = Meter()
+    start = time.perf_counter()
+    try:
+        out = llama.create_chat_completion(**kwargs)
+    finally:
+        llama.meter = None
+    seconds = time.perf_counter() - start
     usage = out.get("usage") or {}
     choice = out["choices"][0]
+    prompt = int(usage.get("prompt_tokens", 0))
+    tokens = [int(t) for t in llama.input_ids[: llama.n_tokens]] if with_tokens else None
     return {
-        "id": ident,
-        "ok": {
-            "text": choice["message"].get("content") or "",
-            "prompt_tokens": usage.get("prompt_tokens", 0),
-            "completion_tokens": usage.get("completion_tokens", 0),
-            "finish_reason": choice.get("finish_reason"),
-        },
+        **({"tokens": tokens} if tokens is not None else {}),  # prompt, then the answer
+        "text": choice["message"].get("content") or "",
+        "prompt_tokens": prompt,
+        "completion_tokens": usage.get("completion_tokens", 0),
+        "finish_reason": choice.get("finish_reason"),
+        "prompt_evaluated": meter.prompt_evaluated,
+        "prompt_reused": max(0, prompt - meter.prompt_evaluated),
+        "prompt_seconds": round(meter.prompt_seconds, 4),
+        "seconds": round(seconds, 4),
     }
+
+
+def _rates(llama: Any, body: dict[str, Any]) -> dict[str, Any]:
+    """llama.cpp's own speed here: ``tokens`` evaluated in batches from an empty context (the
+    prompt rate), then ``generate`` tokens decoded one at a time, each the greedy choice of the
+    last (the generation rate); nothing else (no chat template, sampler chain or grammar). The
+    context is emptied again after it (kept KV states stay)."""
+    import numpy as np
+
+    tokens = [int(t) for t in body["tokens"]]
+    generate = int(body["generate"])
+    if not tokens or generate < 1 or len(tokens) + generate > llama.n_ctx():
+        raise ValueError("rates: give 1..n_ctx prompt tokens and generate >= 1")
+    llama.reset()
+    llama._ctx.kv_cache_seq_rm(-1, 0, -1)
+    base: Any = super(type(llama), llama)  # llama-cpp-python's eval (llama_decode), unmetered
+    start = time.perf_counter()
+    base.eval(tokens)
+    prompt_seconds = time.perf_counter() - start
+    start = time.perf_counter()
+    n_vocab = llama.n_vocab()
+    for _ in range(generate):
+        logits = np.ctypeslib.as_array(llama._ctx.get_logits(), shape=(n_vocab,))
+        base.eval([int(logits.argmax())])
+    generate_seconds = time.perf_counter() - start
+    llama.reset()
+    llama._ctx.kv_cache_seq_rm(-1, 0, -1)
+    return {
+        "prompt_tokens": len(tokens),
+        "prompt_seconds": prompt_seconds,
+        "generated": generate,
+        "generate_seconds": generate_seconds,
+    }
+
+
+#: The kinds of request the worker answers: a message ``{"id": N, KIND: body}`` is answered by
+#: ``REQUESTS[KIND](llama, body)`` (a JSON object), or by one error line when it raises.
+REQUESTS: Mapping[str, Callable[[Any, dict[str, Any]], dict[str, Any]]] = MappingProxyType(
+    {"complete": _complete, "rates": _rates}
+)
 
 
 def _grammar(llama: Any, text: str) -> Any:

@@ -1,0 +1,450 @@
+"""``llmpas bench llm``: the offline model on the prompts the loop really sends.
+
+The prompts are recorded ones (a cassette folder, by default the main job's published
+cassettes): each recorded goals request with its first look before it and its repairs after
+it is one *consultation*, sent in the loop's order (first look, goals, repair-1, repair-2).
+Every setting answers all of them in one run, each in a fresh model process:
+
+- ``before``: the settings before #30 (one thread; only the last answer's KV state kept, so a
+  prompt reuses only the prefix it shares with the call just before);
+- ``defaults``: today's defaults (:class:`~llmpas.reasoning.backends.llamacpp.LlamaSettings`:
+  threads from the free cores, KV states kept across answers);
+- ``limit``: llama.cpp at its best here: the rates of its own decoding loop (``llama_decode`` in
+  batches for a prompt, one token at a time for an answer, greedy, no chat template, sampler
+  chain or grammar, threads = the free cores) applied to the least work the same answers need:
+  each prompt token evaluated once (a prefix any earlier call evaluated is reused) and the
+  tokens the defaults generated.
+
+Per setting and call kind the table gives the prompt tokens evaluated and reused, the tokens
+generated, the seconds, and the prompt and generation rates; then the seconds per consultation,
+the ratios, whether the defaults' answers are the same as before (greedy and sampled apart), and
+how many prompt tokens the defaults evaluated that an earlier call had evaluated already.
+Writes ``llm.md``, ``llm.csv`` (one row per call and setting) and ``llm.png``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import statistics
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from rich.console import Console
+
+from llmpas.experiments.benchmarks import AllConfig, Bench
+from llmpas.files import atomic_write, save_figure, write_csv
+from llmpas.options import positive_int
+from llmpas.reasoning.llm import LLMError, Message, Request
+
+log = logging.getLogger(__name__)
+
+DEFAULT_CASSETTES = Path("tests/data/cassettes/qwen1.5b")  # the main job's, in the repository
+KINDS = ("first-look", "goals", "repair")
+SETTINGS = ("before", "defaults", "limit")
+RATE_GENERATE = 32  # tokens decoded one at a time to measure the generation rate
+
+
+@dataclass(frozen=True)
+class Call:
+    """One recorded request of a consultation: its kind and what was answered when recorded."""
+
+    kind: str  # first-look | goals | repair
+    tag: str
+    request: Request
+    recorded: str
+
+
+@dataclass(frozen=True)
+class Measured:
+    """One call answered under one setting."""
+
+    setting: str
+    consultation: int
+    kind: str
+    tag: str
+    greedy: bool
+    prompt_tokens: int
+    evaluated: int
+    reused: int
+    generated: int
+    seconds: float  # the whole answer, as the caller waited for it
+    prompt_seconds: float
+    text: str
+    recorded: str
+    tokens: tuple[int, ...] = ()  # prompt then answer, as evaluated
+
+    def row(self) -> dict[str, Any]:
+        return {
+            "setting": self.setting,
+            "consultation": self.consultation,
+            "call": self.tag,
+            "greedy": self.greedy,
+            "prompt_tokens": self.prompt_tokens,
+            "evaluated": self.evaluated,
+            "reused": self.reused,
+            "generated": self.generated,
+            "seconds": round(self.seconds, 3),
+            "prompt_seconds": round(self.prompt_seconds, 3),
+            "same_as_recorded": self.text == self.recorded,
+            "text": self.text,
+        }
+
+
+def _request(data: dict[str, Any]) -> Request:
+    r = data["request"]
+    return Request(
+        tuple(Message(m["role"], m["content"]) for m in r["messages"]),
+        temperature=r["temperature"],
+        max_tokens=r["max_tokens"],
+        seed=r["seed"],
+        grammar=r.get("grammar"),
+        json_schema=r.get("json_schema"),
+        tag=data.get("tag") or "",
+    )
+
+
+def consultations(folder: Path) -> list[list[Call]]:
+    """The consultations recorded in ``folder``: each goals request, after the first look its
+    prompt quotes and before the repairs that continue its conversation (votes left out)."""
+    calls: list[Call] = []
+    for path in sorted(folder.glob("*.json")):
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+            tag = str(data.get("tag") or "")
+            call = Call(_kind(tag), tag, _request(data), str(data["response"]["text"]))
+        except (OSError, ValueError, KeyError, TypeError) as err:
+            raise ValueError(f"{path}: not a cassette ({type(err).__name__}: {err})") from None
+        if call.kind:
+            calls.append(call)
+    looks = [c for c in calls if c.kind == "first-look"]
+    repairs = sorted((c for c in calls if c.kind == "repair"), key=lambda c: c.tag)
+    found = []
+    for goals in (c for c in calls if c.kind == "goals"):
+        prompt = goals.request.messages[-1].content
+        look = [c for c in looks if c.recorded.strip() and c.recorded.strip() in prompt]
+        chain = [*look[:1], goals]
+        for repair in repairs:
+            previous = chain[-1].request.messages
+            if repair.request.messages[: len(previous)] == previous:
+                chain.append(repair)
+        found.append(chain)
+    return found
+
+
+def _kind(tag: str) -> str:
+    if tag in ("first-look", "goals"):
+        return tag
+    return "repair" if tag.startswith("repair-") else ""
+
+
+def run_setting(
+    name: str, model: Path, settings: Any, consultations: Sequence[Sequence[Call]]
+) -> tuple[list[Measured], dict[str, Any] | None]:
+    """Every call answered under ``settings`` in one model process, in order; with the rates
+    of llama.cpp's own loop measured in that process after them (``name == "defaults"``)."""
+    from llmpas.reasoning.backends.llamacpp import LlamaCppBackend, request_kwargs
+
+    out: list[Measured] = []
+    rates = None
+    with LlamaCppBackend(model, settings=settings) as llm:
+        for number, chain in enumerate(consultations):
+            for call in chain:
+                body = {**request_kwargs(call.request, settings.seed), "with_tokens": True}
+                ok, seconds = llm.ask("complete", body)
+                out.append(_measured(name, number, call, ok, seconds))
+                log.info("%s #%d %s: %.1f s", name, number, call.tag, seconds)
+        if name == "defaults" and out:
+            longest = max(out, key=lambda m: m.prompt_tokens)
+            prompt = list(longest.tokens[: longest.prompt_tokens])
+            rates, _ = llm.ask("rates", {"tokens": prompt, "generate": RATE_GENERATE})
+    return out, rates
+
+
+def _measured(name: str, number: int, call: Call, ok: dict[str, Any], seconds: float) -> Measured:
+    prompt = int(ok.get("prompt_tokens") or 0)
+    evaluated = int(ok.get("prompt_evaluated") or 0)
+    return Measured(
+        setting=name,
+        consultation=number,
+        kind=call.kind,
+        tag=call.tag,
+        greedy=call.request.temperature == 0,
+        prompt_tokens=prompt,
+        evaluated=evaluated,
+        reused=int(ok.get("prompt_reused") or 0),
+        generated=int(ok.get("completion_tokens") or 0),
+        seconds=seconds,
+        prompt_seconds=float(ok.get("prompt_seconds") or 0.0),
+        text=str(ok.get("text") or ""),
+        recorded=call.recorded,
+        tokens=tuple(int(t) for t in ok.get("tokens") or ()),
+    )
+
+
+def least_evaluated(measured: Sequence[Measured]) -> list[int]:
+    """Per call, the prompt tokens no earlier call evaluated (the longest prefix shared with
+    what an earlier call evaluated is reused), but its last few, which are evaluated so that the
+    logits stay those of a batch (:data:`~llmpas.reasoning.backends.llamacpp_worker.TAIL`)."""
+    from llmpas.reasoning.backends.llamacpp_worker import TAIL
+
+    least = []
+    for i, m in enumerate(measured):
+        prompt = m.tokens[: m.prompt_tokens]
+        shared = max((_prefix(prompt, e.tokens) for e in measured[:i]), default=0)
+        least.append(m.prompt_tokens - min(shared, max(0, m.prompt_tokens - TAIL)))
+    return least
+
+
+def _prefix(a: Sequence[int], b: Sequence[int]) -> int:
+    n = 0
+    for x, y in zip(a, b, strict=False):
+        if x != y:
+            break
+        n += 1
+    return n
+
+
+def limit_row(defaults: Sequence[Measured], rates: dict[str, Any]) -> list[Measured]:
+    """The defaults' calls at llama.cpp's own rates, each prompt token evaluated once."""
+    prompt_rate = rates["prompt_tokens"] / rates["prompt_seconds"]
+    generate_rate = rates["generated"] / rates["generate_seconds"]
+    out = []
+    for m, least in zip(defaults, least_evaluated(defaults), strict=True):
+        prompt_seconds = least / prompt_rate
+        seconds = prompt_seconds + m.generated / generate_rate
+        out.append(
+            replace(
+                m,
+                setting="limit",
+                evaluated=least,
+                reused=m.prompt_tokens - least,
+                seconds=seconds,
+                prompt_seconds=prompt_seconds,
+            )
+        )
+    return out
+
+
+@dataclass(frozen=True)
+class Summary:
+    """One setting and call kind (``kind == "all"``: every call)."""
+
+    setting: str
+    kind: str
+    calls: int
+    evaluated: int
+    reused: int
+    generated: int
+    seconds: float
+    prompt_seconds: float
+
+    @property
+    def prompt_rate(self) -> float | None:
+        return self.evaluated / self.prompt_seconds if self.prompt_seconds > 0 else None
+
+    @property
+    def generation_rate(self) -> float | None:
+        rest = self.seconds - self.prompt_seconds
+        return self.generated / rest if rest > 0 else None
+
+
+def summarise(measured: Sequence[Measured]) -> list[Summary]:
+    rows = []
+    for setting in SETTINGS:
+        for kind in (*KINDS, "all"):
+            ms = [m for m in measured if m.setting == setting and kind in (m.kind, "all")]
+            if ms:
+                rows.append(
+                    Summary(
+                        setting,
+                        kind,
+                        len(ms),
+                        sum(m.evaluated for m in ms),
+                        sum(m.reused for m in ms),
+                        sum(m.generated for m in ms),
+                        sum(m.seconds for m in ms),
+                        sum(m.prompt_seconds for m in ms),
+                    )
+                )
+    return rows
+
+
+def per_consultation(measured: Sequence[Measured], setting: str) -> float | None:
+    """Mean seconds of one consultation (its calls together)."""
+    totals: dict[int, float] = {}
+    for m in measured:
+        if m.setting == setting:
+            totals[m.consultation] = totals.get(m.consultation, 0.0) + m.seconds
+    return statistics.mean(totals.values()) if totals else None
+
+
+def markdown(measured: Sequence[Measured], about: dict[str, Any]) -> str:
+    lines = [
+        "# The offline model on the loop's recorded prompts",
+        "",
+        f"Model `{about['model']}`; prompts: `{about['cassettes']}` ({about['consultations']} "
+        f"consultations, {about['calls']} calls); threads: before 1, defaults and limit "
+        f"{about['threads']} (free cores when measured; load average {about['load']}).",
+        "",
+        "| setting | call | calls | prompt tokens evaluated | reused | generated | seconds "
+        "| prompt tok/s | generation tok/s |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for s in summarise(measured):
+        lines.append(
+            f"| {s.setting} | {s.kind} | {s.calls} | {s.evaluated} | {s.reused} | {s.generated} "
+            f"| {s.seconds:.1f} | {_rate(s.prompt_rate)} | {_rate(s.generation_rate)} |"
+        )
+    before = per_consultation(measured, "before")
+    defaults = per_consultation(measured, "defaults")
+    limit = per_consultation(measured, "limit")
+    lines += ["", "Seconds per consultation (mean):", ""]
+    for name, value in (("before", before), ("defaults", defaults), ("limit", limit)):
+        lines.append(f"- {name}: {value:.1f} s" if value is not None else f"- {name}: -")
+    if before and defaults:
+        lines.append(f"- defaults are {before / defaults:.2f}x as fast as before")
+    if limit and defaults:
+        lines.append(f"- defaults take {defaults / limit:.2f}x the limit's time")
+    lines += ["", *_answers(measured)]
+    return "\n".join(lines) + "\n"
+
+
+def _answers(measured: Sequence[Measured]) -> list[str]:
+    by = {(m.setting, m.consultation, m.tag): m for m in measured}
+    pairs = [
+        (m, by[("defaults", m.consultation, m.tag)])
+        for m in measured
+        if m.setting == "before" and ("defaults", m.consultation, m.tag) in by
+    ]
+    lines = []
+    for label, greedy in (("greedy", True), ("sampled (repairs)", False)):
+        ps = [(a, b) for a, b in pairs if a.greedy == greedy]
+        if ps:
+            same = sum(a.text == b.text for a, b in ps)
+            lines.append(f"- {label} answers the same as before: {same} of {len(ps)}")
+    defaults = [m for m in measured if m.setting == "defaults"]
+    if defaults:
+        twice = sum(
+            m.evaluated - least
+            for m, least in zip(defaults, least_evaluated(defaults), strict=True)
+        )
+        lines.append(f"- prompt tokens the defaults evaluated that an earlier call had: {twice}")
+    for setting in ("before", "defaults"):
+        ms = [m for m in measured if m.setting == setting]
+        if ms:
+            same = sum(m.text == m.recorded for m in ms)
+            lines.append(f"- {setting}: answers equal to the recorded ones: {same} of {len(ms)}")
+    return lines
+
+
+def _rate(value: float | None) -> str:
+    return f"{value:.1f}" if value is not None else "-"
+
+
+def plot(measured: Sequence[Measured], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    count = len({m.consultation for m in measured}) or 1
+    fig, ax = plt.subplots(figsize=(7, 4))
+    settings = [s for s in SETTINGS if any(m.setting == s for m in measured)]
+    bottoms = [0.0] * len(settings)
+    for kind in KINDS:
+        heights = [
+            sum(m.seconds for m in measured if m.setting == s and m.kind == kind) / count
+            for s in settings
+        ]
+        ax.bar(settings, heights, bottom=bottoms, label=kind)
+        bottoms = [b + h for b, h in zip(bottoms, heights, strict=True)]
+    ax.set_ylabel("seconds per consultation (mean)")
+    ax.set_title("offline model on the loop's recorded prompts")
+    ax.legend()
+    ax.grid(True, axis="y", alpha=0.3)
+    fig.tight_layout()
+    save_figure(fig, path)
+    plt.close(fig)
+
+
+def run_bench(
+    model: Path, cassettes: Path, out: Path, limit: int | None, console: Console
+) -> list[Path]:
+    from llmpas.reasoning.backends.llamacpp import LlamaSettings, settings_before
+
+    found = consultations(cassettes)[:limit]
+    if not found:
+        raise ValueError(f"--cassettes {cassettes}: no recorded goals request")
+    defaults = LlamaSettings()
+    before = settings_before(defaults)
+    measured: list[Measured] = []
+    with console.status("before: the settings before #30 ..."):
+        measured += run_setting("before", model, before, found)[0]
+    with console.status("defaults ..."):
+        rows, rates = run_setting("defaults", model, defaults, found)
+    measured += rows
+    if rates is not None:
+        measured += limit_row(rows, rates)
+    about = {
+        "model": model.name,
+        "cassettes": str(cassettes),
+        "consultations": len(found),
+        "calls": sum(len(c) for c in found),
+        "threads": defaults.n_threads,
+        "load": " / ".join(f"{x:.2f}" for x in os.getloadavg()),
+    }
+    out.mkdir(parents=True, exist_ok=True)
+    files = [
+        atomic_write(out / "llm.md", markdown(measured, about)),
+        write_csv(out / "llm.csv", [m.row() for m in measured]),
+    ]
+    plot(measured, out / "llm.png")
+    return [*files, out / "llm.png"]
+
+
+# ------------------------------------------------------------------------------------ CLI
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The options of ``llmpas bench llm``."""
+    p.add_argument("--model", help="a GGUF file (default: the offline model)")
+    p.add_argument(
+        "--cassettes",
+        default=str(DEFAULT_CASSETTES),
+        help="recorded requests: a cassette folder (default: the main job's)",
+    )
+    p.add_argument("--consultations", type=positive_int, help="only the first N consultations")
+    p.add_argument("--out", default="results/llm")
+
+
+def command(args: argparse.Namespace, console: Console) -> int:
+    """``llmpas bench llm``."""
+    from llmpas.reasoning.models import DEFAULT_MODEL, model_path
+
+    cassettes = Path(args.cassettes)
+    if not cassettes.is_dir():
+        raise ValueError(f"--cassettes {cassettes}: no such folder")
+    model = Path(args.model) if args.model else model_path(DEFAULT_MODEL)
+    if not model.is_file():
+        raise LLMError(f"model file {model} not found: run `llmpas model install`")
+    files = run_bench(model, cassettes, Path(args.out), args.consultations, console)
+    console.print(f"wrote {', '.join(str(p) for p in files)}")
+    return 0
+
+
+def _in_all(config: AllConfig) -> tuple[str, ...] | None:
+    return None  # it needs the offline model and minutes of it: run on its own
+
+
+BENCHMARK = Bench(
+    "llm",
+    "the offline model on the loop's recorded prompts: settings before, defaults, limit",
+    add_arguments,
+    command,
+    _in_all,
+)
