@@ -27,7 +27,7 @@ from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import IO, Any
 
-from llmpas.reasoning.llm import LLMError, Message, Request, Response
+from llmpas.reasoning.llm import LLMError, Message, Request, Response, ScoreRequest, Scores
 
 log = logging.getLogger(__name__)
 
@@ -143,6 +143,42 @@ class LlamaCppBackend:
             latency=latency,
             meta={"finish_reason": ok.get("finish_reason")},
         )
+
+    def score(self, request: ScoreRequest) -> Scores:
+        """Each choice's token log-probabilities after the chat and the prefix (a request kind
+        of its own beside :meth:`complete`; the worker answers ``score`` messages)."""
+        with self._lock:
+            worker = self._worker
+            if worker is None or not worker.alive():
+                worker = self._start()
+            self._requests += 1
+            message = {
+                "id": self._requests,
+                "score": {
+                    "messages": [{"role": m.role, "content": m.content} for m in request.messages],
+                    "prefix": request.prefix,
+                    "choices": list(request.choices),
+                },
+            }
+            start = time.perf_counter()
+            try:
+                answer = worker.ask(message, self.settings.timeout, "scoring")
+            except BaseException:
+                if self._worker is worker:
+                    self.close()
+                raise
+            if answer.get("id") != message["id"]:
+                self.close()
+                raise LLMError(f"{self.name}: the model's process answered another request")
+            if "error" in answer:
+                raise LLMError(f"{self.name}: {answer['error']}")
+            ok = answer["ok"]
+            return Scores(
+                tuple(tuple(float(x) for x in lp) for lp in ok["logprobs"]),
+                model=self.name,
+                prompt_tokens=int(ok.get("prompt_tokens") or 0),
+                latency=time.perf_counter() - start,
+            )
 
     def _start(self) -> _Worker:
         self.close()

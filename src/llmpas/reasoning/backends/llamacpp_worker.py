@@ -6,7 +6,10 @@ cost one request, not the caller's run. The worker speaks JSON messages over the
 (a :class:`multiprocessing.connection.Connection`), one request at a time:
 
 - ``{"load": {...}}`` -> ``{"ready": seconds}`` or ``{"error": "..."}`` (the first message);
-- ``{"id": N, "complete": {...}}`` -> ``{"id": N, "ok": {...}}`` or ``{"id": N, "error": "..."}``.
+- ``{"id": N, "complete": {...}}`` -> ``{"id": N, "ok": {...}}`` or ``{"id": N, "error": "..."}``;
+- ``{"id": N, "score": {"messages": [...], "prefix": "...", "choices": [...]}}`` -> ``{"id": N,
+  "ok": {"logprobs": [[...], ...], "prompt_tokens": P}}``: each choice's token log-probabilities
+  after the chat's prompt and the prefix (a request kind of its own: :func:`_score`).
 
 It exits when the socket closes or its parent is gone, and ignores Ctrl-C (the parent decides).
 Weights are not repacked into llama.cpp's extra buffer types unless asked (``extra_bufts``): the
@@ -43,7 +46,8 @@ def main(argv: list[str]) -> int:
         conn.send_bytes(_dump({"ready": True}))
         while True:
             message = json.loads(conn.recv_bytes())
-            conn.send_bytes(_dump(_answer(llama, message)))
+            answer = _score(llama, message) if "score" in message else _answer(llama, message)
+            conn.send_bytes(_dump(answer))
     except (EOFError, OSError):  # the parent closed the socket: stop
         return 0
 
@@ -111,6 +115,92 @@ def _answer(llama: Any, message: dict[str, Any]) -> dict[str, Any]:
             "finish_reason": choice.get("finish_reason"),
         },
     }
+
+
+def _score(llama: Any, message: dict[str, Any]) -> dict[str, Any]:
+    """The log-probability of every token of each choice, read from the model's logits after
+    the chat prompt (the model's own chat template), the prefix and the choice's earlier tokens.
+    The prompt is evaluated once per request (from the start, so that the same request gives
+    the same scores); each choice reuses it (the cache is cut back to the shared tokens) and
+    decodes its own tokens in one batch."""
+    ident = message.get("id")
+    ask = message["score"]
+    try:
+        prompt = _chat_prompt(llama, ask["messages"]) + str(ask.get("prefix", ""))
+        base = _tokens(llama, prompt)
+        llama.n_tokens = 0  # the same evaluation every time: a request's scores repeat exactly
+        out = []
+        for choice in ask["choices"]:
+            tokens = _tokens(llama, prompt + str(choice))
+            start = _shared(base, tokens)
+            if start < 1 or start >= len(tokens):
+                raise ValueError(f"choice {choice!r} adds no token to the prompt")
+            out.append(_logprobs(llama, tokens, start))
+    except Exception as err:  # one request failed; the worker goes on
+        return {"id": ident, "error": _line(err)}
+    return {"id": ident, "ok": {"logprobs": out, "prompt_tokens": len(base)}}
+
+
+def _chat_prompt(llama: Any, messages: list[dict[str, str]]) -> str:
+    """The chat as the model's template writes it, ready for the assistant's answer (ChatML
+    when the model has no template)."""
+    template = (getattr(llama, "metadata", None) or {}).get("tokenizer.chat_template")
+    if template:
+        from llama_cpp import llama_chat_format
+
+        def text(token: int) -> str:
+            return str(llama._model.token_get_text(token)) if token != -1 else ""
+
+        formatter = llama_chat_format.Jinja2ChatFormatter(
+            template=template,
+            eos_token=text(llama.token_eos()),
+            bos_token=text(llama.token_bos()),
+            add_generation_prompt=True,
+        )
+        return str(formatter(messages=messages).prompt)  # type: ignore[arg-type]
+    chat = "".join(f"<|im_start|>{m['role']}\n{m['content']}<|im_end|>\n" for m in messages)
+    return chat + "<|im_start|>assistant\n"
+
+
+def _tokens(llama: Any, text: str) -> list[int]:
+    return list(llama.tokenize(text.encode("utf-8"), add_bos=True, special=True))
+
+
+def _shared(a: list[int], b: list[int]) -> int:
+    n = 0
+    while n < min(len(a), len(b)) and a[n] == b[n]:
+        n += 1
+    return n
+
+
+def _logprobs(llama: Any, tokens: list[int], start: int) -> list[float]:
+    """log p(tokens[i] | tokens[:i]) for i >= start (the cache kept where it agrees). The
+    choice's tokens (from the one before it) are decoded in one batch that keeps the logits of
+    every position."""
+    import llama_cpp
+    import numpy as np
+
+    cached = [int(t) for t in llama.input_ids[: llama.n_tokens]]
+    keep = min(_shared(cached, tokens), start - 1)
+    llama.n_tokens = keep
+    if keep < start - 1:
+        llama.eval(tokens[keep : start - 1])
+    part = tokens[start - 1 : -1]  # each position predicts the next token of the choice
+    past = llama.n_tokens
+    llama._ctx.kv_cache_seq_rm(-1, past, -1)
+    llama._batch.set_batch(batch=part, n_past=past, logits_all=True)
+    llama._ctx.decode(llama._batch)
+    llama.input_ids[past : past + len(part)] = part
+    llama.n_tokens = past + len(part)
+    n_vocab = llama.n_vocab()
+    out = []
+    for j, token in enumerate(tokens[start:]):
+        raw = llama_cpp.llama_get_logits_ith(llama.ctx, j)
+        logits = np.ctypeslib.as_array(raw, shape=(n_vocab,)).astype(np.float64)
+        top = logits.max()
+        total = top + np.log(np.exp(logits - top).sum())
+        out.append(float(logits[token] - total))
+    return out
 
 
 def _grammar(llama: Any, text: str) -> Any:
