@@ -120,15 +120,16 @@ def _answer(llama: Any, message: dict[str, Any]) -> dict[str, Any]:
 def _score(llama: Any, message: dict[str, Any]) -> dict[str, Any]:
     """The log-probability of every token of each choice, read from the model's logits after
     the chat prompt (the model's own chat template), the prefix and the choice's earlier tokens.
-    The prompt is evaluated once per request (from the start, so that the same request gives
-    the same scores); each choice reuses it (the cache is cut back to the shared tokens) and
-    decodes its own tokens in one batch."""
+    Only what the model's cache does not already hold is evaluated (the system message, the
+    actions and the predicates are shared with the requests before: on a slow CPU the prompt
+    is most of the cost); each choice reuses the prompt (the cache is cut back to the shared
+    tokens) and decodes its own tokens in one batch. Scores can differ in the last digits with
+    what the cache held (batching changes the arithmetic): recorded scores replay exactly."""
     ident = message.get("id")
     ask = message["score"]
     try:
         prompt = _chat_prompt(llama, ask["messages"]) + str(ask.get("prefix", ""))
         base = _tokens(llama, prompt)
-        llama.n_tokens = 0  # the same evaluation every time: a request's scores repeat exactly
         out = []
         for choice in ask["choices"]:
             tokens = _tokens(llama, prompt + str(choice))
