@@ -120,26 +120,61 @@ def _answer(llama: Any, message: dict[str, Any]) -> dict[str, Any]:
 def _score(llama: Any, message: dict[str, Any]) -> dict[str, Any]:
     """The log-probability of every token of each choice, read from the model's logits after
     the chat prompt (the model's own chat template), the prefix and the choice's earlier tokens.
-    Only what the model's cache does not already hold is evaluated (the system message, the
-    actions and the predicates are shared with the requests before: on a slow CPU the prompt
-    is most of the cost); each choice reuses the prompt (the cache is cut back to the shared
-    tokens) and decodes its own tokens in one batch. Scores can differ in the last digits with
-    what the cache held (batching changes the arithmetic): recorded scores replay exactly."""
+
+    Only what the model's cache does not already hold is evaluated: the prompt once (its part
+    shared with earlier requests not even that), and of each choice the tokens after those it
+    shares with the choice before (``(and (scanned`` is common to many; their log-probabilities,
+    the same context and the same tokens, are taken from the choice before). A choice's own
+    tokens are decoded one at a time: on a CPU without fast batched kernels a small batch costs
+    far more than its tokens one by one. Scores can differ in the last digits with what the
+    cache held (batching changes the arithmetic): recorded scores replay exactly."""
     ident = message.get("id")
     ask = message["score"]
     try:
         prompt = _chat_prompt(llama, ask["messages"]) + str(ask.get("prefix", ""))
         base = _tokens(llama, prompt)
+        known: dict[int, float] = {}  # position -> log p(token there | the cached tokens before)
         out = []
         for choice in ask["choices"]:
             tokens = _tokens(llama, prompt + str(choice))
             start = _shared(base, tokens)
             if start < 1 or start >= len(tokens):
                 raise ValueError(f"choice {choice!r} adds no token to the prompt")
-            out.append(_logprobs(llama, tokens, start))
+            out.append(_logprobs(llama, tokens, start, known))
     except Exception as err:  # one request failed; the worker goes on
         return {"id": ident, "error": _line(err)}
     return {"id": ident, "ok": {"logprobs": out, "prompt_tokens": len(base)}}
+
+
+def _logprobs(llama: Any, tokens: list[int], start: int, known: dict[int, float]) -> list[float]:
+    """log p(tokens[i] | tokens[:i]) for i >= start: those at positions the cache holds with
+    the same tokens from ``known``, the rest decoded one token at a time."""
+    import llama_cpp
+    import numpy as np
+
+    cached = [int(t) for t in llama.input_ids[: llama.n_tokens]]
+    shared = _shared(cached, tokens)
+    reuse = start
+    while reuse < min(shared, len(tokens) - 1) and reuse in known:
+        reuse += 1  # tokens[start:reuse] are scored already, in this very context
+    keep = min(shared, reuse - 1)
+    for i in [k for k in known if k >= keep + 1 and k >= reuse]:
+        del known[i]
+    llama.n_tokens = keep
+    if keep < reuse - 1:
+        llama.eval(tokens[keep : reuse - 1])  # the prompt (or its part not cached): a batch
+    llama.eval(tokens[reuse - 1 : reuse])
+    n_vocab = llama.n_vocab()
+    out = [known[i] for i in range(start, reuse)]
+    for i in range(reuse, len(tokens)):
+        raw = llama_cpp.llama_get_logits_ith(llama.ctx, -1)
+        logits = np.ctypeslib.as_array(raw, shape=(n_vocab,)).astype(np.float64)
+        top = logits.max()
+        known[i] = float(logits[tokens[i]] - (top + np.log(np.exp(logits - top).sum())))
+        out.append(known[i])
+        if i + 1 < len(tokens):
+            llama.eval(tokens[i : i + 1])
+    return out
 
 
 def _chat_prompt(llama: Any, messages: list[dict[str, str]]) -> str:
@@ -172,36 +207,6 @@ def _shared(a: list[int], b: list[int]) -> int:
     while n < min(len(a), len(b)) and a[n] == b[n]:
         n += 1
     return n
-
-
-def _logprobs(llama: Any, tokens: list[int], start: int) -> list[float]:
-    """log p(tokens[i] | tokens[:i]) for i >= start (the cache kept where it agrees). The
-    choice's tokens (from the one before it) are decoded in one batch that keeps the logits of
-    every position."""
-    import llama_cpp
-    import numpy as np
-
-    cached = [int(t) for t in llama.input_ids[: llama.n_tokens]]
-    keep = min(_shared(cached, tokens), start - 1)
-    llama.n_tokens = keep
-    if keep < start - 1:
-        llama.eval(tokens[keep : start - 1])
-    part = tokens[start - 1 : -1]  # each position predicts the next token of the choice
-    past = llama.n_tokens
-    llama._ctx.kv_cache_seq_rm(-1, past, -1)
-    llama._batch.set_batch(batch=part, n_past=past, logits_all=True)
-    llama._ctx.decode(llama._batch)
-    llama.input_ids[past : past + len(part)] = part
-    llama.n_tokens = past + len(part)
-    n_vocab = llama.n_vocab()
-    out = []
-    for j, token in enumerate(tokens[start:]):
-        raw = llama_cpp.llama_get_logits_ith(llama.ctx, j)
-        logits = np.ctypeslib.as_array(raw, shape=(n_vocab,)).astype(np.float64)
-        top = logits.max()
-        total = top + np.log(np.exp(logits - top).sum())
-        out.append(float(logits[token] - total))
-    return out
 
 
 def _grammar(llama: Any, text: str) -> Any:
