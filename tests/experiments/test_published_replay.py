@@ -77,3 +77,17 @@ def test_the_whole_suite_runs_replay_exactly(
     replayed = _rows(_replay(method, tasks, tmp_path), (method,), tasks)
     published = _rows(SUITE, (method,), tasks)
     assert replayed and replayed == published
+
+
+CHOOSE = ROOT / "docs" / "results" / "prompting-qwen1.5b-choose_samples.csv"
+
+
+def test_the_choosing_run_replays_exactly(tmp_path: Path) -> None:
+    """A slice of the #31 run (flp-choose: the model's scores of the loop's candidates,
+    recorded as ``score`` cassettes; its first looks are FLP's recorded ones) replays to the
+    same goals and verdicts (docs/results/prompting-qwen1.5b-choose.md)."""
+    tasks = ("ol01-table2", "ol02-table1")
+    replayed = _rows(_replay("flp-choose", tasks, tmp_path), ("flp-choose",), tasks)
+    published = _rows(CHOOSE, ("flp-choose",), tasks)
+    assert replayed and replayed == published
+    assert {r["success"] for r in replayed.values()} == {"True", "False"}

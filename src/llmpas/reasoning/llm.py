@@ -94,6 +94,59 @@ class Response:
         object.__setattr__(self, "meta", MappingProxyType(dict(self.meta)))
 
 
+@dataclass(frozen=True)
+class ScoreRequest:
+    """Score given continuations of one chat: how likely the model finds each ``choice`` as
+    the start of its answer (after ``prefix``, text the answer is taken to begin with). A
+    request kind of its own beside :class:`Request`, recorded and replayed the same way."""
+
+    messages: tuple[Message, ...]
+    choices: tuple[str, ...]
+    prefix: str = ""
+    tag: str = ""  # not part of the key
+    situation: Any = field(default=None, compare=False, repr=False)  # never sent
+
+    def __post_init__(self) -> None:
+        if not self.messages:
+            raise ValueError("a score request needs at least one message")
+        if not self.choices or any(not c for c in self.choices):
+            raise ValueError("a score request needs non-empty choices")
+
+    def key(self) -> str:
+        data = {
+            "kind": "score",
+            "messages": [[m.role, m.content] for m in self.messages],
+            "choices": list(self.choices),
+            "prefix": self.prefix,
+        }
+        text = json.dumps(data, sort_keys=True, ensure_ascii=False)
+        return hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()
+
+
+@dataclass(frozen=True)
+class Scores:
+    """The log-probability of each choice's tokens (natural log, one list per choice)."""
+
+    logprobs: tuple[tuple[float, ...], ...]
+    model: str = ""
+    prompt_tokens: int = 0
+    latency: float = 0.0
+
+    def mean(self) -> tuple[float, ...]:
+        """Per choice, the mean log-probability of its tokens (length-normalised, so that a
+        conjunction is not ranked below a literal for its length alone)."""
+        return tuple(sum(lp) / len(lp) if lp else float("-inf") for lp in self.logprobs)
+
+
+@runtime_checkable
+class Scorer(Protocol):
+    """A backend that can score continuations (token log-probabilities)."""
+
+    name: str
+
+    def score(self, request: ScoreRequest) -> Scores: ...
+
+
 class LLMError(RuntimeError):
     """A backend could not answer (timeout, HTTP error, missing model): one line saying why."""
 
@@ -106,6 +159,10 @@ class Fault(Enum):
     HTTP = "http"  # a non-2xx status
     MALFORMED = "malformed"  # not JSON, not UTF-8, or not a chat completion
     TOO_LARGE = "too-large"  # the answer exceeds the size bound
+
+
+class ScoringUnsupported(LLMError):
+    """The backend cannot score continuations (the caller asks for a numbered choice)."""
 
 
 class LLMServerError(LLMError):

@@ -17,6 +17,11 @@
 - ``flp-hypotheses`` — FLP with a structured first look: step 1 lists hypotheses about the cause,
   each with the fact that would confirm or fix it; step 2 turns them into goals.
 
+- ``flp-choose`` — the model chooses instead of writing: the loop enumerates candidate goal sets
+  (:mod:`llmpas.system.candidates`) and, after the first look, the model ranks them by their
+  likelihood as its answer (:mod:`llmpas.reasoning.choose`); controls that ask no model:
+  ``candidates-random`` (a seeded uniform order) and ``candidates-first`` (the enumeration's).
+
 ``MethodConfig.votes`` > 1 adds self-consistency to any method: that many sampled answers, each
 checked by the validator (the loop's planner-backed check), the goal set most valid answers agree
 on kept.
@@ -43,6 +48,7 @@ from importlib import resources
 from pathlib import Path
 from string import Template
 from types import MappingProxyType
+from typing import Any
 
 from llmpas.language.logic import Formula
 from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal, parse_goals
@@ -65,8 +71,13 @@ class Method:
     template: str
     first_look: str = ""
     reader: str = "goals"
+    # how candidate goal sets the loop enumerates are ranked ("": the method writes goals;
+    # model | random | first: :mod:`llmpas.reasoning.choose`)
+    chooser: str = ""
 
     def __post_init__(self) -> None:
+        if self.chooser not in ("", "model", "random", "first"):
+            raise ValueError(f"method {self.name!r}: chooser must be model, random or first")
         if not re.fullmatch(r"[a-z][a-z0-9-]*", self.name):
             raise ValueError(f"method name {self.name!r}: lower-case letters, digits and '-'")
         if self.reader not in READERS:
@@ -91,6 +102,9 @@ REGISTRY: Mapping[str, Method] = MappingProxyType(
             Method("inner-monologue", "inner_monologue", reader="skill"),
             Method("flp-multi", "flp_multi_step2", first_look="flp_step1"),
             Method("flp-hypotheses", "flp_step2", first_look="flp_hypotheses_step1"),
+            Method("flp-choose", "choose_step2", first_look="flp_step1", chooser="model"),
+            Method("candidates-random", "choose_step2", chooser="random"),
+            Method("candidates-first", "choose_step2", chooser="first"),
         )
     }
 )
@@ -189,6 +203,8 @@ class Proposal:
     exchanges: tuple[Exchange, ...]
     repairs: int
     first_look: str = ""
+    candidates: tuple[Any, ...] = ()  # choosing methods: every candidate ranked (``Ranked``)
+    chosen: Any = None  # the candidate proposed
 
     @property
     def ok(self) -> bool:

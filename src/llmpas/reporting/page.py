@@ -536,8 +536,35 @@ def _reasoning(r: Round, x: Reasoning) -> Markup:
     ]
     if x.first_look:
         parts.append(tag("div", "first look: ", tag("code", x.first_look), class_="small"))
+    if x.candidates:
+        parts.append(_candidates(x.candidates))
     parts += [_exchange(e, open_=False) for e in x.exchanges]
     return join(parts)
+
+
+def _candidates(cands: Sequence[tuple[str, float | None, bool]]) -> Markup:
+    """The candidate goal sets of a choosing method, ranked, with their scores (the model's
+    mean token log-probability; none for a control) and the one chosen."""
+    rows = [
+        tag(
+            "tr",
+            tag("td", str(i)),
+            tag("td", tag("code", goals)),
+            tag("td", "—" if score is None else f"{score:.3f}"),
+            tag("td", "chosen" if chosen else ""),
+            class_="chosen" if chosen else None,
+        )
+        for i, (goals, score, chosen) in enumerate(cands, 1)
+    ]
+    head = tag(
+        "tr", tag("th", "#"), tag("th", "candidate goals"), tag("th", "score"), tag("th", "")
+    )
+    return tag(
+        "details",
+        tag("summary", f"{len(cands)} candidate goal sets, ranked"),
+        tag("table", head, *rows, class_="candidates"),
+        open=True,
+    )
 
 
 def _round(run: RunRecord, r: Round, images: Images) -> Markup:

@@ -104,6 +104,8 @@ class Reasoning:
     first_look: str
     exchanges: tuple[Exchange, ...]
     latency: float | None
+    # choosing methods: every candidate goal set (goals, score or None, chosen), ranked
+    candidates: tuple[tuple[str, float | None, bool], ...] = ()
 
     @classmethod
     def of(cls, d: Mapping[str, Any]) -> Reasoning:
@@ -135,6 +137,11 @@ class Reasoning:
             first_look=get_str(d, "first_look"),
             exchanges=tuple(exchanges),
             latency=get_float(d, "latency"),
+            candidates=tuple(
+                (get_str(c, "goals"), get_float(c, "score"), c.get("chosen") is True)
+                for c in get_list(d, "candidates")
+                if isinstance(c, Mapping)
+            ),
         )
 
 

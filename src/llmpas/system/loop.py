@@ -28,11 +28,13 @@ from llmpas.language.problem import Problem, parse_formula
 from llmpas.language.semantics import Semantics
 from llmpas.planning import Plan, PlannerConfig, PlanResult, solve
 from llmpas.reasoning.assists import Assists
+from llmpas.reasoning.choose import Ranked, chosen, nothing, rank
 from llmpas.reasoning.goals import Literal
 from llmpas.reasoning.llm import LLM, Baseline, LLMError, Request, Response
-from llmpas.reasoning.methods import MethodConfig, propose
+from llmpas.reasoning.methods import MethodConfig, Proposal, method, propose
 from llmpas.reasoning.prompts import situation
 from llmpas.system.achievable import Makeable, certified
+from llmpas.system.candidates import anomaly_objects, enumerate_goals, first_accepted
 from llmpas.system.checks import GoalChecker
 from llmpas.system.records import LoopResult, LoopStatus, OnRound, Round
 from llmpas.system.recovery import Stages, conjuncts, kept_goal, out_of_order
@@ -124,6 +126,9 @@ class _Loop:
     tried: list[frozenset[str]] = field(default_factory=list)  # achieved, did not help
     failed: list[tuple[frozenset[str], str]] = field(default_factory=list)  # execution failed
     just_failed: frozenset[str] = frozenset()  # the literals of the goal whose round just failed
+    ranked_for: str = ""  # choosing methods: the anomaly the ranking was made for
+    ranked: list[Ranked] = field(default_factory=list)  # that ranking
+    ranking: list[Ranked] = field(default_factory=list)  # its candidates not proposed yet
     pending: frozenset[str] | None = None  # the goals being pursued
     plans: dict[tuple[str, int], tuple[PlanResult, Any]] = field(default_factory=dict)
     llm_time: float = 0.0
@@ -221,15 +226,18 @@ class _Loop:
                 return self.stop_at_deadline()
             t = time.perf_counter()
             a = self.assists
-            proposal = propose(
-                self.situation(report),
-                backend,
-                self.session.vocabulary,
-                self.method,
-                self.check if a.validation or a.search_rewrite else None,
-                self.memory.exhausted() if a.grammar_pruning else (),
-                prune=a.grammar_pruning,
-            )
+            if method(self.method.method).chooser:
+                proposal = self.choose(report, backend, asked)
+            else:
+                proposal = propose(
+                    self.situation(report),
+                    backend,
+                    self.session.vocabulary,
+                    self.method,
+                    self.check if a.validation or a.search_rewrite else None,
+                    self.memory.exhausted() if a.grammar_pruning else (),
+                    prune=a.grammar_pruning,
+                )
             self.llm_time += time.perf_counter() - t
             self.rounds[-1] = replace(rnd, proposal=proposal)
             self.record()
@@ -304,6 +312,55 @@ class _Loop:
             report.constraint,
             self.success or "",
         )
+
+    def choose(self, report: AnomalyReport, backend: LLM, asked: int) -> Proposal:
+        """A choosing method's proposal: for an anomaly ranked before, the next candidate of
+        that ranking the checks still accept (no model asked); else the candidates enumerated
+        now (:mod:`llmpas.system.candidates`), ranked by the method's chooser, the best one the
+        validator accepts proposed and the rest kept."""
+        name = self.method.method
+        key = "|".join((report.action, *report.args, str(report.constraint), report.reason))
+        if self.ranked_for == key and self.ranking:
+            found = first_accepted(self.check, [r.goals for r in self.ranking])
+            if found is not None:
+                i, _ = found
+                pick, self.ranking = self.ranking[i], self.ranking[i + 1 :]
+                note = "the next candidate of the ranking made for this anomaly before"
+                return chosen(name, pick, (), "", self.ranked, [note])
+        vocab = self.session.vocabulary
+        anchors = anomaly_objects(report, vocab)
+        looks = []
+        if any(self.search.lost(o) for o in anchors):
+            places = vocab.predicates.get(self.search.predicate, ((),))[0]
+            looks = [self.memory.look(p) for p in sorted(places)]
+        t = time.perf_counter()
+        cands = enumerate_goals(
+            vocab,
+            anchors,
+            looks,
+            self.makeable,
+            lambda g: self.sem.holds(g, self.facts(And((g,)))),
+            self.just_failed,
+            self.memory.exhausted(),
+            self.check.as_goal if self.assists.search_rewrite else lambda g: g,
+            self.search.lost,
+        )
+        self.count("candidates", time.perf_counter() - t)
+        if not cands:
+            return nothing(name, "no candidate goal set is left (each already true or tried)")
+        ranking, exchanges, first_look = rank(
+            self.situation(report), backend, cands, self.method, asked
+        )
+        t = time.perf_counter()
+        found = first_accepted(self.check, [r.goals for r in ranking])
+        self.count("candidates", time.perf_counter() - t)
+        if found is None:
+            why = "no candidate goal set passed the checks (unreachable, already true or tried)"
+            return nothing(name, why, ranking, exchanges, first_look)
+        i, _ = found
+        skipped = [f"skipped {r.text}: the checks rejected it" for r in ranking[:i]]
+        self.ranked_for, self.ranked, self.ranking = key, ranking, list(ranking[i + 1 :])
+        return chosen(name, ranking[i], exchanges, first_look, ranking, skipped)
 
     def history(self) -> str:
         """What the prompt says was tried: the searches, the goals that did not help, then the

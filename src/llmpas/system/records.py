@@ -57,6 +57,9 @@ def _proposal_json(p: Proposal) -> dict[str, Any]:
         "notes": list(p.parse.notes),
         "repairs": p.repairs,
         "first_look": p.first_look,
+        "candidates": [
+            {"goals": c.text, "score": c.score, "chosen": c is p.chosen} for c in p.candidates
+        ],
         "tokens": p.tokens,
         "latency": p.latency,
         "exchanges": [

@@ -4,13 +4,16 @@ as a default). Each implements the LLM protocol and reads the anomaly from the r
 
 from __future__ import annotations
 
+import re
+
 from llmpas.language.logic import Atom, Formula, Not
 from llmpas.language.sexpr import SList, Sym, parse_all
 from llmpas.reasoning.goals import parse_goals
-from llmpas.reasoning.llm import Request, Response
+from llmpas.reasoning.llm import Request, Response, ScoreRequest, Scores
 from llmpas.reasoning.tables import Vocabulary
 
 FIRST_LOOK = "Look where the truth says."
+_LITERAL = re.compile(r"\(not \([^()]*\)\)|\([^()]*\)")
 
 
 def failed_literal(request: Request) -> Formula | None:
@@ -46,6 +49,23 @@ class TruthOracle:
             intent = str(getattr(request.situation, "intent", "") or "")
             goals = self.legal(substitute(intent, c))
         return answer(goals)
+
+    def score(self, request: ScoreRequest) -> Scores:
+        """The oracle's ranking of candidate goal sets: a candidate scores one per goal of the
+        oracle's own answer it contains, less a hundredth per other literal (the oracle's
+        goals first, the fewest extra literals next)."""
+        c = getattr(request.situation, "constraint", None)
+        goals: list[Atom | Not] = []
+        if c is not None:
+            goals = self.legal(self.goals(c))
+            if not goals:
+                goals = self.legal(substitute(str(getattr(request.situation, "intent", "")), c))
+        wanted = {str(g) for g in goals}
+        out = []
+        for choice in request.choices:
+            have = set(_LITERAL.findall(choice))
+            out.append((len(have & wanted) - 0.01 * len(have - wanted),))
+        return Scores(tuple(out), model="oracle")
 
     def legal(self, goals: list[Atom | Not]) -> list[Atom | Not]:
         """The goals the vocabulary accepts (all of them without one)."""

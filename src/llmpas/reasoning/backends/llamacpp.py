@@ -27,7 +27,7 @@ from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import IO, Any
 
-from llmpas.reasoning.llm import LLMError, Message, Request, Response
+from llmpas.reasoning.llm import LLMError, Message, Request, Response, ScoreRequest, Scores
 
 log = logging.getLogger(__name__)
 
@@ -180,6 +180,22 @@ class LlamaCppBackend:
             self.close()
             raise LLMError(f"{self.name}: the model's process sent a malformed message")
         return ok, seconds
+
+    def score(self, request: ScoreRequest) -> Scores:
+        """Each choice's token log-probabilities after the chat and the prefix (a request kind
+        of its own beside :meth:`complete`; the worker answers ``score`` messages)."""
+        body = {
+            "messages": [{"role": m.role, "content": m.content} for m in request.messages],
+            "prefix": request.prefix,
+            "choices": list(request.choices),
+        }
+        ok, seconds = self.ask("score", body)
+        return Scores(
+            tuple(tuple(float(x) for x in lp) for lp in ok["logprobs"]),
+            model=self.name,
+            prompt_tokens=int(ok.get("prompt_tokens") or 0),
+            latency=seconds,
+        )
 
     def _start(self) -> _Worker:
         self.close()

@@ -7,7 +7,8 @@ cost one request, not the caller's run. The worker speaks JSON messages over the
 
 - ``{"load": {...}}`` -> ``{"ready": seconds}`` or ``{"error": "..."}`` (the first message);
 - ``{"id": N, KIND: {...}}`` -> ``{"id": N, "ok": {...}}`` or ``{"id": N, "error": "..."}``, one
-  request of a kind in :data:`REQUESTS` (``complete``: a chat completion).
+  request of a kind in :data:`REQUESTS` (``complete``: a chat completion; ``score``: each
+  choice's token log-probabilities after the chat's prompt and a prefix, :func:`_score`).
 
 KV states (``kv_states`` > 0): after each answer the worker keeps llama.cpp's KV state of the
 tokens it evaluated (at most ``kv_states`` of them, the least recently used dropped); a request
@@ -64,7 +65,8 @@ def main(argv: list[str]) -> int:
         conn.send_bytes(_dump({"ready": True}))
         while True:
             message = json.loads(conn.recv_bytes())
-            conn.send_bytes(_dump(_answer(llama, message)))
+            answer = _answer(llama, message)
+            conn.send_bytes(_dump(answer))
     except (EOFError, OSError):  # the parent closed the socket: stop
         return 0
 
@@ -349,10 +351,90 @@ def _rates(llama: Any, body: dict[str, Any]) -> dict[str, Any]:
     }
 
 
+def _score(llama: Any, ask: dict[str, Any]) -> dict[str, Any]:
+    """The log-probability of every token of each choice, read from the model's logits after
+    the chat prompt (the model's own chat template), the prefix and the choice's earlier tokens.
+
+    Only what the model's cache does not already hold is evaluated: the prompt once (its part
+    shared with earlier requests not even that), and of each choice the tokens after those it
+    shares with the choice before (``(and (scanned`` is common to many; their log-probabilities,
+    the same context and the same tokens, are taken from the choice before). A choice's own
+    tokens are decoded one at a time: on a CPU without fast batched kernels a small batch costs
+    far more than its tokens one by one. Scores can differ in the last digits with what the
+    cache held (batching changes the arithmetic): recorded scores replay exactly."""
+    prompt = _chat_prompt(llama, ask["messages"]) + str(ask.get("prefix", ""))
+    base = _tokens(llama, prompt)
+    known: dict[int, float] = {}  # position -> log p(token there | the cached tokens before)
+    out = []
+    for choice in ask["choices"]:
+        tokens = _tokens(llama, prompt + str(choice))
+        start = _prefix(base, tokens)
+        if start < 1 or start >= len(tokens):
+            raise ValueError(f"choice {choice!r} adds no token to the prompt")
+        out.append(_logprobs(llama, tokens, start, known))
+    return {"logprobs": out, "prompt_tokens": len(base)}
+
+
+def _logprobs(llama: Any, tokens: list[int], start: int, known: dict[int, float]) -> list[float]:
+    """log p(tokens[i] | tokens[:i]) for i >= start: those at positions the cache holds with
+    the same tokens from ``known``, the rest decoded one token at a time."""
+    import llama_cpp
+    import numpy as np
+
+    cached = [int(t) for t in llama.input_ids[: llama.n_tokens]]
+    shared = _prefix(cached, tokens)
+    reuse = start
+    while reuse < min(shared, len(tokens) - 1) and reuse in known:
+        reuse += 1  # tokens[start:reuse] are scored already, in this very context
+    keep = min(shared, reuse - 1)
+    for i in [k for k in known if k >= keep + 1 and k >= reuse]:
+        del known[i]
+    llama.n_tokens = keep
+    if keep < reuse - 1:
+        llama.eval(tokens[keep : reuse - 1])  # the prompt (or its part not cached): a batch
+    llama.eval(tokens[reuse - 1 : reuse])
+    n_vocab = llama.n_vocab()
+    out = [known[i] for i in range(start, reuse)]
+    for i in range(reuse, len(tokens)):
+        raw = llama_cpp.llama_get_logits_ith(llama.ctx, -1)
+        logits = np.ctypeslib.as_array(raw, shape=(n_vocab,)).astype(np.float64)
+        top = logits.max()
+        known[i] = float(logits[tokens[i]] - (top + np.log(np.exp(logits - top).sum())))
+        out.append(known[i])
+        if i + 1 < len(tokens):
+            llama.eval(tokens[i : i + 1])
+    return out
+
+
+def _chat_prompt(llama: Any, messages: list[dict[str, str]]) -> str:
+    """The chat as the model's template writes it, ready for the assistant's answer (ChatML
+    when the model has no template)."""
+    template = (getattr(llama, "metadata", None) or {}).get("tokenizer.chat_template")
+    if template:
+        from llama_cpp import llama_chat_format
+
+        def text(token: int) -> str:
+            return str(llama._model.token_get_text(token)) if token != -1 else ""
+
+        formatter = llama_chat_format.Jinja2ChatFormatter(
+            template=template,
+            eos_token=text(llama.token_eos()),
+            bos_token=text(llama.token_bos()),
+            add_generation_prompt=True,
+        )
+        return str(formatter(messages=messages).prompt)  # type: ignore[arg-type]
+    chat = "".join(f"<|im_start|>{m['role']}\n{m['content']}<|im_end|>\n" for m in messages)
+    return chat + "<|im_start|>assistant\n"
+
+
+def _tokens(llama: Any, text: str) -> list[int]:
+    return list(llama.tokenize(text.encode("utf-8"), add_bos=True, special=True))
+
+
 #: The kinds of request the worker answers: a message ``{"id": N, KIND: body}`` is answered by
 #: ``REQUESTS[KIND](llama, body)`` (a JSON object), or by one error line when it raises.
 REQUESTS: Mapping[str, Callable[[Any, dict[str, Any]], dict[str, Any]]] = MappingProxyType(
-    {"complete": _complete, "rates": _rates}
+    {"complete": _complete, "rates": _rates, "score": _score}
 )
 
 

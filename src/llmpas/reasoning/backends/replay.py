@@ -10,7 +10,15 @@ from pathlib import Path
 from typing import Any, Literal, get_args
 
 from llmpas.files import atomic_write
-from llmpas.reasoning.llm import LLM, LLMError, Request, Response
+from llmpas.reasoning.llm import (
+    LLM,
+    LLMError,
+    Request,
+    Response,
+    ScoreRequest,
+    Scores,
+    ScoringUnsupported,
+)
 
 log = logging.getLogger(__name__)
 
@@ -63,6 +71,36 @@ class ReplayBackend:
         self._counted.add(key)
         return response
 
+    def score(self, request: ScoreRequest) -> Scores:
+        """Recorded scores (a cassette of kind ``score``); recorded from ``inner`` when it can
+        score. ``ScoringUnsupported`` when there is no recording to replay and nothing that can
+        score: the caller then asks for a numbered choice, which replays or records as any
+        request."""
+        path = self.folder / f"{request.key()}.json"
+        if self.mode != "record" and path.is_file():
+            return self._load_scores(path)
+        scorer = getattr(self.inner, "score", None)
+        if self.mode == "replay" or not callable(scorer):
+            raise ScoringUnsupported(f"no recorded scores for {request.tag or 'request'}")
+        scores: Scores = scorer(request)
+        text = json.dumps(_score_cassette(request, scores), indent=2, ensure_ascii=False)
+        _atomic_write(path, text + "\n")
+        log.info("recorded %s (scores, %s)", path.name, request.tag or "untagged")
+        return scores
+
+    def _load_scores(self, path: Path) -> Scores:
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+            got = data["scores"]
+            return Scores(
+                tuple(tuple(float(x) for x in lp) for lp in got["logprobs"]),
+                model=str(got.get("model", "")),
+                prompt_tokens=int(got.get("prompt_tokens", 0)),
+                latency=float(got.get("latency", 0.0)),
+            )
+        except (OSError, ValueError, KeyError, TypeError) as err:
+            raise LLMError(f"unreadable cassette {path}: {type(err).__name__}: {err}") from None
+
     def _missing(self, request: Request) -> LLMError:
         tag = request.tag or "request"
         return LLMError(
@@ -113,6 +151,26 @@ def _cassette(request: Request, response: Response) -> dict[str, Any]:
             "completion_tokens": response.completion_tokens,
             "latency": response.latency,
             "meta": _plain(response.meta),
+        },
+    }
+
+
+def _score_cassette(request: ScoreRequest, scores: Scores) -> dict[str, Any]:
+    return {
+        "version": CASSETTE_VERSION,
+        "kind": "score",
+        "key": request.key(),
+        "tag": request.tag,
+        "request": {
+            "messages": [{"role": m.role, "content": m.content} for m in request.messages],
+            "prefix": request.prefix,
+            "choices": list(request.choices),
+        },
+        "scores": {
+            "logprobs": [list(lp) for lp in scores.logprobs],
+            "model": scores.model,
+            "prompt_tokens": scores.prompt_tokens,
+            "latency": scores.latency,
         },
     }
 
