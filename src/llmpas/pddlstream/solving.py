@@ -123,6 +123,7 @@ def solve(
         memory_mb=4096 if math.isinf(max_memory) else max(64, int(max_memory)),
         search=search,
         max_empty_samples=GENERATOR_NONE_ENDS_CALL,
+        init_identity=True,  # as in PDDLStream
     )
     started = _cpu()
     tr = translate(problem, stream_info, unit_costs=unit_costs, notes=ctx.notes)

@@ -21,6 +21,11 @@ class PlannerConfig:
     (nothing deferred: every stream computed; ``--no-defer``, formerly called "eager"), every
     stream is evaluated at planning time.
 
+    ``init_identity``: when True, a stream output equal to an init object's value (numbers,
+    tuples, arrays: not names) is that object, as in PDDLStream (``llmpas.pddlstream`` sets it);
+    off for llmpas's own problems, whose streams' values are new objects (the household's
+    placements equal to an init placement would otherwise take that object's facts).
+
     ``share_placeholders``: when True, instances of a stream evaluated while planning share one
     placeholder per (stream, output, level), as in PDDLStream, so that a ``forall`` ranges over
     fewer objects. Sharing alone is not complete (on the household's blocked-microwave task it
@@ -120,6 +125,7 @@ class PlannerConfig:
     memory_mb: int = 4096
     seed: int = 0
     share_placeholders: bool = False
+    init_identity: bool = False  # a stream output equal to an init object's value is that object
     search: str | None = None  # a Fast Downward search string (None: the quality's)
     quality: QualityName = DEFAULT_QUALITY
     patience: int = 10  # anytime: iterations without a cheaper plan before it stops

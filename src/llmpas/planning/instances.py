@@ -124,6 +124,7 @@ class StreamStore:
         deadline: float,
         max_calls: int | None = None,
         max_empty: int | None = None,
+        init_identity: bool = False,
     ) -> None:
         self.problem = problem
         self.deadline = deadline
@@ -131,8 +132,10 @@ class StreamStore:
         self.max_empty = max_empty
         self.facts: set[Atom] = set(problem.init)
         self.rejected: set[Atom] = set()
-        # a stream output equal to an init object's value is that object, as in PDDLStream
-        self.namer = ValueNamer(taken=problem.all_objects, prefix="s", known=problem.objects)
+        # init_identity: a stream output equal to an init object's value is that object, as in
+        # PDDLStream (PlannerConfig.init_identity)
+        known = problem.objects if init_identity else None
+        self.namer = ValueNamer(taken=problem.all_objects, prefix="s", known=known)
         self.values: dict[str, Any] = dict(problem.objects)
         self.records: dict[tuple[str, tuple[str, ...]], Record] = {}
         self.calls: Counter[str] = Counter()

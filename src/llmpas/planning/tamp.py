@@ -299,7 +299,11 @@ def _solve_once(
         config,
         classical,
         StreamStore(
-            problem, started + config.max_time, config.max_stream_calls, config.max_empty_samples
+            problem,
+            started + config.max_time,
+            config.max_stream_calls,
+            config.max_empty_samples,
+            init_identity=config.init_identity,
         ),
         compile_domain(problem, negative, inline, fluent),
         negative,
