@@ -125,6 +125,10 @@ class _Loop:
     report: AnomalyReport | None = None
     tried: list[frozenset[str]] = field(default_factory=list)  # achieved, did not help
     failed: list[tuple[frozenset[str], str]] = field(default_factory=list)  # execution failed
+    # the goals whose execution failed with nothing done since: proposed again they are
+    # rejected; once a round has carried out a step the state has changed and they may be
+    # proposed again (the mug taken out of the sink, rinsing the apple there can succeed)
+    failed_since: set[frozenset[str]] = field(default_factory=set)
     just_failed: frozenset[str] = frozenset()  # the literals of the goal whose round just failed
     ranked_for: str = ""  # choosing methods: the anomaly the ranking was made for
     ranked: list[Ranked] = field(default_factory=list)  # that ranking
@@ -140,6 +144,7 @@ class _Loop:
     success: str | None = None  # the task's intent (None: the task goal)
     stages: Stages = field(default_factory=Stages)  # recovery goals reached and still to reach
     who: str = "the LLM"  # what answers in the records ("the LLM", or a baseline's label)
+    baseline: bool = False  # a Baseline answers (no LLM): its restatements are planned as given
 
     def __post_init__(self) -> None:
         if not self.assists.repair:
@@ -168,7 +173,7 @@ class _Loop:
             self.facts,
             self.sem,
             self.task,
-            lambda: [*self.tried, *(goals for goals, _ in self.failed)],
+            lambda: [*self.tried, *self.failed_since],
             self.assists,
             self.makeable,
             self.restates_failure,
@@ -217,7 +222,7 @@ class _Loop:
                 if ep.anomaly is not None and self.task_holds():
                     return self.end(True, f"the task holds: {ep.anomaly.describe()}")
                 if ep.anomaly is not None:
-                    self.failed_round(ep.anomaly, on_task)
+                    self.failed_round(ep.anomaly, on_task, bool(ep.completed))
                 if ep.anomaly is None or asked >= self.max_rounds:
                     return self.end(False, ep.message or "out of LLM rounds")
                 report = self.report = ep.anomaly
@@ -372,16 +377,20 @@ class _Loop:
         ]
         return "\n".join(lines)
 
-    def failed_round(self, anomaly: AnomalyReport, on_task: bool) -> None:
+    def failed_round(self, anomaly: AnomalyReport, on_task: bool, acted: bool) -> None:
         """A round's execution failed: its goal is the one that just failed (an answer that
         restates it gets that feedback), and the LLM's goals it pursued count as tried, so that
-        the next consultation is told so and cannot propose them again."""
+        the next consultation is told so and cannot propose them again until a
+        round carries out a step (``acted``: the state they failed in has changed)."""
+        if acted:
+            self.failed_since.clear()
         if on_task:
             self.just_failed = frozenset(str(a) for a in conjuncts(self.task))
             return
         if self.pending is None:
             return
         self.just_failed = self.pending
+        self.failed_since.add(self.pending)
         if all(self.pending != goals for goals, _ in self.failed):
             self.failed.append((self.pending, f"{anomaly.action} failed ({anomaly.reason})"))
 
@@ -391,8 +400,8 @@ class _Loop:
         failure would repeat); "" otherwise (the belief now explains it: replanning may work)."""
         names = frozenset(map(str, goals))
         report = self.report
-        if report is None or not names or not names <= self.just_failed:
-            return ""
+        if self.baseline or report is None or not names or not names <= self.just_failed:
+            return ""  # a baseline's restatement is what it measures: replanning alone
         both = kept_goal(self.task, self.stages.kept, list(goals))
         result, problem = self.plan(both)
         if not (result.solved and self.repeats_unexplained(result, problem)):
@@ -586,6 +595,7 @@ def close_loop(
         backend = factory(session)
         loop.who = who(backend)  # "the LLM", or what answers in its place
         if isinstance(backend, Baseline):  # no LLM: no repairs asked of it
+            loop.baseline = True
             loop.method = replace(loop.method, repairs=min(loop.method.repairs, backend.repairs))
         if settings.deadline is not None:
             backend = _ByDeadline(backend, loop.remaining)
