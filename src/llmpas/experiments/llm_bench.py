@@ -190,23 +190,14 @@ def least_evaluated(measured: Sequence[Measured]) -> list[int]:
     """Per call, the prompt tokens no earlier call evaluated (the longest prefix shared with
     what an earlier call evaluated is reused), but its last few, which are evaluated so that the
     logits stay those of a batch (:data:`~llmpas.reasoning.backends.llamacpp_worker.TAIL`)."""
-    from llmpas.reasoning.backends.llamacpp_worker import TAIL
+    from llmpas.reasoning.backends.llamacpp_worker import TAIL, common_prefix
 
     least = []
     for i, m in enumerate(measured):
         prompt = m.tokens[: m.prompt_tokens]
-        shared = max((_prefix(prompt, e.tokens) for e in measured[:i]), default=0)
+        shared = max((common_prefix(prompt, e.tokens) for e in measured[:i]), default=0)
         least.append(m.prompt_tokens - min(shared, max(0, m.prompt_tokens - TAIL)))
     return least
-
-
-def _prefix(a: Sequence[int], b: Sequence[int]) -> int:
-    n = 0
-    for x, y in zip(a, b, strict=False):
-        if x != y:
-            break
-        n += 1
-    return n
 
 
 def limit_row(defaults: Sequence[Measured], rates: dict[str, Any]) -> list[Measured]:

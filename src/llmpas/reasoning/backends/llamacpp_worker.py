@@ -141,7 +141,7 @@ class KVStates:
         wanted = list(tokens)
         best, length = None, 0
         for key in self.states:
-            n = _prefix(key, wanted)
+            n = common_prefix(key, wanted)
             if n > length or (n == length and best is not None):  # ties: the latest
                 best, length = key, n
         length = min(length, len(wanted) - TAIL)
@@ -159,7 +159,8 @@ class KVStates:
             self.states.popitem(last=False)
 
 
-def _prefix(a: Sequence[int], b: Sequence[int]) -> int:
+def common_prefix(a: Sequence[int], b: Sequence[int]) -> int:
+    """How many leading tokens ``a`` and ``b`` share."""
     n = 0
     for x, y in zip(a, b, strict=False):
         if x != y:
@@ -368,7 +369,7 @@ def _score(llama: Any, ask: dict[str, Any]) -> dict[str, Any]:
     out = []
     for choice in ask["choices"]:
         tokens = _tokens(llama, prompt + str(choice))
-        start = _prefix(base, tokens)
+        start = common_prefix(base, tokens)
         if start < 1 or start >= len(tokens):
             raise ValueError(f"choice {choice!r} adds no token to the prompt")
         out.append(_logprobs(llama, tokens, start, known))
@@ -382,7 +383,7 @@ def _logprobs(llama: Any, tokens: list[int], start: int, known: dict[int, float]
     import numpy as np
 
     cached = [int(t) for t in llama.input_ids[: llama.n_tokens]]
-    shared = _prefix(cached, tokens)
+    shared = common_prefix(cached, tokens)
     reuse = start
     while reuse < min(shared, len(tokens) - 1) and reuse in known:
         reuse += 1  # tokens[start:reuse] are scored already, in this very context
