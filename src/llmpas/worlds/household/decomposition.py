@@ -120,6 +120,10 @@ class Builder(KitchenBuilder):
     def otherwise(self, step: PlanStep) -> Recipe:
         return self.process(step)
 
+    def same_place(self, belief: Belief, region: str, place: str) -> bool:
+        """The same piece of furniture (a look covers all of a table top)."""
+        return furniture_of(self.house, region) == furniture_of(self.house, place)
+
     def scan_inside(self, step: PlanStep) -> Recipe:
         return self.scan(step)
 
@@ -227,8 +231,10 @@ class Builder(KitchenBuilder):
         def detected(v: Values, ctx: Context) -> str | None:
             d = v["observed"].find(obj)
             where = getattr(d.pose, "region", "") if d is not None else ""
-            if d is None or furniture_of(self.house, where) != furniture:
+            if d is None:
                 return f"{obj} not seen when looking at {v['view']}"
+            if furniture_of(self.house, where) != furniture:
+                return f"{obj} seen in {where}, not on {furniture}"
             seen_at.append(d.pose)
             ctx.perceive("detected", d.pose)
             return None

@@ -118,6 +118,10 @@ class Builder(KitchenBuilder):
             rest = ObjectPose(spot.region, spot.x, spot.y, spot.z - self.exploration.drop)
             ctx.belief.values[step.args[1]] = rest
 
+    def same_place(self, belief: Belief, region: str, place: str) -> bool:
+        """The same table (a bowl: the table it is believed on)."""
+        return table_of(self.config, belief, region) == table_of(self.config, belief, place)
+
     def otherwise(self, step: PlanStep) -> Recipe:
         def run(v: Values, c: Context) -> SkillResult:
             return SkillResult.failure(f"{step.action} is not supported in the PyBullet world")
@@ -204,8 +208,11 @@ class Builder(KitchenBuilder):
         def detected(v: Values, ctx: Context) -> str | None:
             d = v["observed"].find(obj)
             table = table_of(self.config, ctx.belief, region)
-            if d is None or table_of(self.config, ctx.belief, d.region) != table:
+            if d is None:
                 return f"{obj} not detected on {table}"
+            seen = table_of(self.config, ctx.belief, d.region)
+            if seen != table:
+                return f"{obj} seen on {seen}, not on {table}"
             ctx.perceive("detected", d.pose)
             return None
 
