@@ -405,6 +405,30 @@ def _scenario_arg(world: str, name: str) -> str:
         raise CliError(f"scenario {name!r}: {e.strerror or e}") from None
 
 
+def _suite_task(world: str, path: str) -> tuple[Any, str | None]:
+    """A task file of the household suite (a scenario with a ``[judge]`` table) runs as
+    ``bench prompting`` runs it: its scenario, ended by its intent (``[judge] success``), so
+    that the same task, seed and LLM give the same rounds in both. Anything else is returned
+    as it is (no intent)."""
+    if world != "household" or not path.endswith(".toml"):
+        return path, None
+    import tomllib
+
+    try:
+        is_task = "judge" in tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return path, None  # the scenario reader reports it, naming the file and place
+    if not is_task:
+        return path, None
+    from llmpas.experiments.suite import SuiteError, load_task
+
+    try:
+        task = load_task(path)
+    except SuiteError as e:
+        raise CliError(str(e)) from None
+    return task.scenario, task.success
+
+
 @contextmanager
 def _naming(scenario: str) -> Iterator[None]:
     """Problem-language errors raised while the problem of a scenario file is built (its goal
@@ -560,12 +584,17 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
 
     name = _world_name(args)
     world = load_world(name)
-    scenario = _scenario_arg(name, args.scenario)
+    path = _scenario_arg(name, args.scenario)
+    scenario, intent = _suite_task(name, path)
     try:
         method = MethodConfig(method=args.method, decoding=args.decoding, votes=args.votes)
         assists = parse_assists(args.assists or args.protocol)
         settings = LoopSettings(
-            method=method, max_rounds=args.rounds, deadline=args.deadline, assists=assists
+            method=method,
+            max_rounds=args.rounds,
+            deadline=args.deadline,
+            assists=assists,
+            success=intent,
         )
         options = _options(args)
     except ValueError as e:
@@ -577,7 +606,7 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
     status = escape(f"running {args.scenario} in {world.title} with {what} ...")
     kept = f" (the rounds so far are in {args.out})" if args.out else ""
     try:
-        with console.status(status), _naming(scenario):
+        with console.status(status), _naming(path):
             if llm is None:
                 result = run_once(world, scenario, options, args.out)
             else:
@@ -588,6 +617,9 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
         raise CliError(f"interrupted{kept}", ExitCode.INTERRUPTED) from None
     _print_rounds(result, console)
     about: dict[str, Any] = {"world": world.title, "task": result.rounds[0].goal}
+    description = world.scenarios().get(args.scenario)
+    if description:  # what happens in the scenario (where a moved object went), on the page
+        about["description"] = description
     if args.out and assists.label != "assisted":
         about["assists"] = assists.label
     if args.with_replan:
