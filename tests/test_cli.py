@@ -144,12 +144,12 @@ def test_run_object_loss_is_the_pybullet_world_with_its_oracle(
 ) -> None:
     assert main(["run", "object-loss", "--llm", "oracle", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert "task done" in out and "(scanned table3)" in out  # the table no camera saw
+    assert "task done" in out and "(scanned table4)" in out  # the table no camera saw
     assert (tmp_path / "round-0" / "report.html").exists() and (tmp_path / "episode.gif").exists()
     assert list((tmp_path / "snapshots").glob("*.png"))
     loop = (tmp_path / "loop.md").read_text()  # both prompts and answers, the goals taken
     assert "#### first-look: prompt" in loop and "#### goals: answer" in loop
-    assert "(scanned table3)" in loop
+    assert "(scanned table4)" in loop
 
 
 def test_run_pybullet_options_and_unknown_scenarios_are_one_line(
