@@ -40,7 +40,9 @@ def first_anomaly(result: LoopResult) -> AnomalyReport:
 
 def rests_on(report: AnomalyReport, obj: str) -> set[str]:
     """Where the anomaly's belief says ``obj`` rests (``supported`` facts' regions)."""
-    return {str(a.args[2]) for a in report.belief if a.predicate == "supported" and a.args[0] == obj}
+    return {
+        str(a.args[2]) for a in report.belief if a.predicate == "supported" and a.args[0] == obj
+    }
 
 
 def prompts(llm: Restating) -> list[str]:

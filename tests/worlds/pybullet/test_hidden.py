@@ -1,8 +1,8 @@
-"""The PyBullet main job that needs its LLM: the cube is carried to table4, which no look of the
-pick's search sees (from its base poses facing table1 the cameras see table1, table2 and part of
-table3), among three tables it could be on. Replanning the task alone (no LLM) does not finish it; the
-oracle (an upper bound) and the offline model's recorded answers (a cassette) do, and the web
-page says which goals made the difference beside the replan-only run."""
+"""The PyBullet main job that needs its LLM: the cube is carried to table4, which no look of
+the pick's search sees (from its base poses facing table1 the cameras see table1, table2 and
+part of table3), among three tables it could be on. Replanning the task alone (no LLM) does not
+finish it; the oracle (an upper bound) and the offline model's recorded answers (a cassette)
+do, and the web page says which goals made the difference beside the replan-only run."""
 
 from __future__ import annotations
 
@@ -67,7 +67,9 @@ def test_the_first_anomaly_believes_everything_a_look_saw_and_no_look_saw_the_cu
     """The honest reason the main job needs its LLM: every object any look of the pick's
     search saw is in the first anomaly's belief where it was seen, and no look saw the cube."""
     options = replace(QUIET, seed=seed)
-    result = run_loop("object-loss", llm_for("replan", world="pybullet"), LoopConfig(options=options))
+    result = run_loop(
+        "object-loss", llm_for("replan", world="pybullet"), LoopConfig(options=options)
+    )
     report = result.rounds[0].episode.anomaly  # type: ignore[union-attr]
     assert report is not None
     seen = sightings(report.observations)

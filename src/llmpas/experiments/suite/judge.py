@@ -15,10 +15,10 @@ from llmpas.experiments.effective import (
     is_effective,
     lost_object,
 )
+from llmpas.experiments.replan import task_literals
 from llmpas.experiments.suite.tasks import Category, SuiteTask
 from llmpas.experiments.suite.truth import holds_in_truth
 from llmpas.experiments.worlds import LoopConfig
-from llmpas.experiments.replan import task_literals
 from llmpas.language.logic import Atom, Not
 from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal
 from llmpas.reasoning.llm import LLM
@@ -140,7 +140,8 @@ def unknown_start(result: LoopResult, task: SuiteTask) -> AnomalyReport | None:
         return None
     believed = task.scenario.belief.places()
     literals = task_literals(task.scenario.goal)
-    named = {o for lit in literals for o in (lit.arg if isinstance(lit, Not) else lit).args}
+    atoms = [lit.arg if isinstance(lit, Not) else lit for lit in literals]
+    named = {o for a in atoms if isinstance(a, Atom) for o in a.args}
     lost = sorted(o for o in named if o in believed and believed[o] is None)
     if not lost:
         return None
