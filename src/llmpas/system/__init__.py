@@ -19,6 +19,10 @@ the LLM in a run; it imports no world. Its modules:
 - :mod:`~llmpas.system.acting`: :func:`plan` and :func:`execute`, memoised per round;
 - :mod:`~llmpas.system.backends`: the loop's LLM, a factory of the session (:func:`fixed` for
   a plain backend), asked once per identical request and before the deadline;
+- :mod:`~llmpas.system.sweep`: an object-loss consultation's places, searched in order until
+  the object is seen, within a budget; :mod:`~llmpas.system.substitution`: a substitute for a
+  part of the task a known cause forbids, carried into the task;
+- :mod:`~llmpas.system.settings`: :class:`LoopSettings`;
 - :mod:`~llmpas.system.search`: the :class:`SearchMemory` (what was searched, what is left);
 - :mod:`~llmpas.system.records`: rounds, results (belief and truth side by side), the Markdown
   report and the run folder;
@@ -46,6 +50,7 @@ from llmpas.system.records import (
 )
 from llmpas.system.run import judged, run, run_once, truth
 from llmpas.system.search import SearchMemory
+from llmpas.system.sweep import SweepBudget
 
 __all__ = [
     "UNJUDGED",
@@ -58,6 +63,7 @@ __all__ = [
     "OnRound",
     "Round",
     "SearchMemory",
+    "SweepBudget",
     "as_factory",
     "close_loop",
     "counted",

@@ -25,6 +25,7 @@ from llmpas.system.anomaly import Anomaly, Tried
 from llmpas.system.candidates import enumerate_goals, first_accepted
 from llmpas.system.checks import GoalChecker
 from llmpas.system.search import SearchMemory
+from llmpas.system.sweep import Sweep, SweepBudget, ordered
 
 
 @dataclass
@@ -79,6 +80,25 @@ class Consultation:
             self.memory.exhausted() if a.grammar_pruning else (),
             prune=a.grammar_pruning,
         )
+
+    def sweep(
+        self, anomaly: Anomaly, proposal: Proposal, budget: SweepBudget, clock: Callable[[], float]
+    ) -> Sweep | None:
+        """The places an object-loss consultation yields, in its order: the proposal's looks
+        as written, then, for a choosing method, the looks of the rest of its ranking in rank
+        order (None: not an object loss, or the proposal is not all looks)."""
+        search = self.acting.session.search
+        obj = anomaly.detected(search.detection)
+        goals = list(proposal.goals)
+        if not obj or not search.lost(obj) or not goals:
+            return None
+        if not all(self.memory.is_look(g) for g in goals):
+            return None
+        rest: list[Literal] = []
+        if method(self.method.method).chooser:
+            singles = [r.goals[0] for r in self.ranking if len(r.goals) == 1]
+            rest = [g for g in singles if self.memory.is_look(g)]
+        return Sweep(obj, ordered(goals, rest), budget, clock)
 
     def situation(self, anomaly: Anomaly) -> Any:
         """The prompt's text for an anomaly, with what was tried before."""

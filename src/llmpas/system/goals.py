@@ -18,6 +18,8 @@ from llmpas.system.anomaly import Anomaly
 from llmpas.system.records import Round
 from llmpas.system.recovery import Stages, conjuncts, kept_goal, out_of_order
 from llmpas.system.search import SearchMemory
+from llmpas.system.substitution import Causes, Substitution, substituted, substitution
+from llmpas.system.sweep import Sweep
 
 
 @dataclass
@@ -34,6 +36,19 @@ class NextGoal:
 
     def __post_init__(self) -> None:
         self.goal = parse_formula(self.task_text, self.sem.domain)
+        self.causes = Causes.of(self.sem.domain)
+        self.substitutions: list[Substitution] = []  # in the order they were made
+
+    def substitute(self, goals: Sequence[Literal]) -> Substitution | None:
+        """Carry a substitute into the task (:mod:`llmpas.system.substitution`): the task's
+        literal that a known cause forbids is replaced by the goal that does the same
+        elsewhere; every other part stays. None: no substitute, or no known cause."""
+        found = substitution(self.goal, goals, self.acting.facts(self.goal), self.causes)
+        if found is not None:
+            self.goal = substituted(self.goal, found)
+            self.task_text = str(self.goal)
+            self.substitutions.append(found)
+        return found
 
     def holds(self) -> bool:
         """Whether the robot believes the task done: its intent (``success``) where the run
@@ -77,8 +92,10 @@ class NextGoal:
         for a reason the belief does not hold, and it reaches the goals in the order written;
         else the first goal (the others follow, one at a time) when the order was not kept;
         else the new goals alone, with those reached before when that can be planned (the task
-        is planned again once they are achieved)."""
+        is planned again once they are achieved). A substitute for a part of the task that a
+        known cause forbids is carried into the task first (:meth:`substitute`)."""
         self.stages.queue = []
+        self.substitute(goals)
         task = parse_formula(self.task_text, self.sem.domain)
         both = kept_goal(task, self.stages.kept, goals)
         result, problem = self.acting.plan(both)
@@ -96,6 +113,21 @@ class NextGoal:
             if not self.acting.plan(goal)[0].solved:
                 goal = And(tuple(goals[:1]))
         return goal, str(goal)
+
+    def look(self, sweep: Sweep, anomaly: Anomaly | None) -> tuple[Formula, str] | None:
+        """The sweep's next place, planned (None: its budget is spent or no place left is
+        reachable). Places searched in vain are passed over, and so are looks no plan
+        reaches."""
+        if sweep.over():
+            return None
+        for look in sweep.candidates(self.memory.exhausted()):
+            goal, text = self.answer([look], anomaly)
+            if self.acting.plan(goal)[0].solved:
+                sweep.take(look)
+                return goal, text
+            sweep.passed.append(f"{look}: no plan reaches it")
+            sweep.order.remove(look)
+        return None
 
     def reordered(self, result: PlanResult, problem: Problem, goals: list[Literal]) -> bool:
         """The plan reaches the goals out of the order written. Searches are left out: a look

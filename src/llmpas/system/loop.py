@@ -16,12 +16,11 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
+from llmpas.language.logic import Formula
 from llmpas.language.problem import parse_formula
 from llmpas.language.semantics import Semantics
-from llmpas.reasoning.assists import Assists
 from llmpas.reasoning.goals import Literal
 from llmpas.reasoning.llm import LLM, Baseline, LLMError
-from llmpas.reasoning.methods import MethodConfig
 from llmpas.system.acting import Acting, counted, execute, plan
 from llmpas.system.anomaly import Anomaly, Tried, repeats_failure, unknown_place
 from llmpas.system.backends import (
@@ -38,29 +37,9 @@ from llmpas.system.consult import Consultation
 from llmpas.system.goals import NextGoal
 from llmpas.system.records import LoopResult, LoopStatus, OnRound, Round
 from llmpas.system.search import SearchMemory
+from llmpas.system.settings import LoopSettings
+from llmpas.system.sweep import Sweep
 from llmpas.worlds.api import Session
-
-
-@dataclass(frozen=True)
-class LoopSettings:
-    """How the loop reasons, in every world (:class:`~llmpas.worlds.api.RunOptions`: how the
-    world runs)."""
-
-    method: MethodConfig = field(default_factory=MethodConfig)
-    max_rounds: int = 3  # LLM consultations at most
-    deadline: float | None = None  # seconds for the whole loop (checked between its steps)
-    assists: Assists = field(default_factory=Assists)  # what the loop does for the LLM
-    # the task's intent (a task file's ``[judge] success``, PDDL): what ends the loop, so that
-    # an equivalent object can satisfy it; None: the task goal itself
-    success: str | None = None
-
-    def __post_init__(self) -> None:
-        if self.success is not None and not self.success.strip():
-            raise ValueError("success must be a PDDL formula, got an empty text")
-        if self.max_rounds < 0:
-            raise ValueError(f"max_rounds must be >= 0, got {self.max_rounds}")
-        if self.deadline is not None and not (math.isfinite(self.deadline) and self.deadline > 0):
-            raise ValueError(f"deadline must be a positive number of seconds, got {self.deadline}")
 
 
 @dataclass
@@ -77,6 +56,8 @@ class _Loop:
     clock: Callable[[], float] = time.monotonic
     who: str = "the LLM"  # what answers in the records ("the LLM", or a baseline's label)
     baseline: bool = False  # a Baseline answers (no LLM): its restatements are planned as given
+    sweep: Sweep | None = None  # the search the last consultation yields, while it goes on
+    note: str = ""  # what the page says of the next round (a sweep's look)
 
     def __post_init__(self) -> None:
         s, settings = self.session, self.settings
@@ -131,6 +112,8 @@ class _Loop:
             if self.expired():
                 return self.stop_at_deadline()
             rnd = self.acting.attempt(goal, text)
+            if self.note:
+                rnd, self.note = replace(rnd, note=self.note), ""
             self.rounds.append(rnd)
             self.record()
             ep = rnd.episode
@@ -143,10 +126,17 @@ class _Loop:
                     goal, text = self.goals.answer(self.goals.stages.queue, self.anomaly)
                     steps += 1
                     continue
+                look = self.next_look()  # a sweep goes on while the object is not seen
+                if look is not None:
+                    goal, text = look
+                    steps += 1
+                    continue
+                self.sweep = None
                 self.tried.in_vain()  # achieved; if the task fails again, it did not help
                 goal, text = self.goals.task()  # recovered: back to the task
                 on_task = True
                 continue
+            self.sweep = None  # a look that failed, or the task again: the sweep is over
             if ep is None:
                 # after a recovery that did not settle the anomaly (a search that found
                 # nothing), the task cannot be planned yet: the same anomaly goes back to the LLM
@@ -180,9 +170,23 @@ class _Loop:
             # achieved goals that did not help count as tried, and so do goals whose execution
             # failed (:meth:`Tried.failed_round`)
             self.tried.pending = frozenset(map(str, proposal.goals))
-            goal, text = self.goals.answer(list(proposal.goals), self.anomaly)
+            self.sweep = self.consult.sweep(anomaly, proposal, self.settings.sweep, self.clock)
+            look = self.next_look()
+            made = len(self.goals.substitutions)
+            goal, text = look or self.goals.answer(list(proposal.goals), self.anomaly)
+            if len(self.goals.substitutions) > made:
+                self.note = "substituted: " + self.goals.substitutions[-1].describe()
             on_task = False
         return self.end(False, f"not done after {self.max_rounds} LLM rounds")
+
+    def next_look(self) -> tuple[Formula, str] | None:
+        """The sweep's next place (:meth:`NextGoal.look`); the page's note for its round."""
+        if self.sweep is None or not self.search.lost(self.sweep.obj):
+            return None
+        look = self.goals.look(self.sweep, self.anomaly)
+        if look is not None:
+            self.note = self.sweep.note()
+        return look
 
     def unknown_place(self) -> Anomaly | None:
         """The task names an object the robot cannot place (:func:`unknown_place`)."""
@@ -214,6 +218,8 @@ class _Loop:
             llm_time=self.llm_time,
             status=status,
             error=error,
+            task=self.goals.task_text if self.goals.substitutions else "",
+            substitutions=tuple(x.describe() for x in self.goals.substitutions),
         )
 
     def record(self, result: LoopResult | None = None) -> None:

@@ -77,7 +77,9 @@ def _opened(
     t0 = time.perf_counter()
     with world.open(scenario, options or RunOptions()) as session:
         result = close_loop(session, llm, settings, _each(hooks) if hooks else None)
-        result = judged(result, session, settings.success, time.perf_counter() - t0)
+        # a task the loop carried a substitute into is judged as pursued (its intent, if any)
+        success = settings.success or result.task or None
+        result = judged(result, session, success, time.perf_counter() - t0)
         if save is not None:
             save(result, session)
     return result
