@@ -1,6 +1,7 @@
 """When the loop plans an LLM's goals before the task
-(:func:`llmpas.system.anomaly.repeats_failure`): the joint plan repeats the step whose failure is the anomaly and nothing the robot believes says
-why. A tiny domain of a bowl a lid may cover; no simulator, no planner."""
+(:func:`llmpas.system.anomaly.repeats_failure`): the joint plan repeats the step whose failure
+is the anomaly and nothing the robot believes says why. A tiny domain of a bowl a lid may
+cover; no simulator, no planner."""
 
 from __future__ import annotations
 

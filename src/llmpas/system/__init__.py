@@ -34,9 +34,9 @@ finish the task); the world's truth is read only by the truth judge (after the l
 labelled oracle.
 """
 
-from llmpas.system.checks import UNJUDGED, GoalChecker
 from llmpas.system.acting import counted, execute, plan
 from llmpas.system.backends import LLMFactory, LLMFor, as_factory, fixed
+from llmpas.system.checks import UNJUDGED, GoalChecker
 from llmpas.system.loop import LoopSettings, close_loop
 from llmpas.system.records import (
     LoopResult,

@@ -98,7 +98,8 @@ def _same_kind(a: str, b: str, facts: Iterable[Atom], causes: Causes) -> bool:
         return frozenset(
             f.predicate.lower()
             for f in facts
-            if f.args == (o,) and f.predicate.lower() in causes.static
+            if f.args == (o,)
+            and f.predicate.lower() in causes.static
             and f.predicate.lower() not in causes.blocking
         )
 
