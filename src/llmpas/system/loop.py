@@ -17,6 +17,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+from llmpas.errors import RobotLostError
 from llmpas.execution.anomaly import AnomalyReport
 from llmpas.execution.context import Recorder
 from llmpas.execution.csubbt import SubtreeSpec
@@ -607,6 +608,9 @@ def close_loop(
         raise
     except KeyboardInterrupt:
         loop.record(loop.end(False, "interrupted", LoopStatus.INTERRUPTED, "KeyboardInterrupt"))
+        raise
+    except RobotLostError as err:  # not an anomaly: no LLM is asked about it
+        loop.record(loop.end(False, f"the robot is gone: {err}", LoopStatus.ROBOT_LOST, str(err)))
         raise
     except Exception as err:
         error = f"{type(err).__name__}: {err}"
