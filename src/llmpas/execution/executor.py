@@ -46,7 +46,7 @@ class ExecutorConfig:
     the skill's own timeout), one per ``period`` seconds."""
 
     max_ticks: int = 2_000
-    period: float = 0.05  # seconds from one tick to the next while a skill runs
+    period: float = 0.02  # seconds from one tick to the next while a skill runs
     max_waits: int = 1_000_000
 
     def __post_init__(self) -> None:

@@ -23,7 +23,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 from llmpas.errors import RobotLostError
 from llmpas.execution.world import Observation, Outcome, SkillResult, finish
@@ -34,6 +34,8 @@ from llmpas.worlds.ros2.node import ACTIONS, FJT, GRIPPER, LOOK, NAV, SKILL, STA
 
 log = logging.getLogger(__name__)
 
+
+T = TypeVar("T")
 
 REQUIRED = (NAV, FJT, SKILL, LOOK)  # what the loop calls (the gripper action is optional)
 
@@ -68,9 +70,13 @@ class RosGoal:
             raise robot.lost_error(name, "is gone")
         robot.goals += 1
         robot.on_goal(f"/{name}/goal", "Goal", goal)
-        self.sent = self.client.send_goal_async(
-            goal,
-            feedback_callback=lambda f: robot.on_goal(f"/{name}/feedback", "Feedback", f.feedback),
+        self.sent = robot.request(
+            lambda: self.client.send_goal_async(
+                goal,
+                feedback_callback=lambda f: robot.on_goal(
+                    f"/{name}/feedback", "Feedback", f.feedback
+                ),
+            )
         )
         self.deadline = time.monotonic() + robot.timeouts.accept
 
@@ -91,7 +97,7 @@ class RosGoal:
                 return self._end(
                     SkillResult.failure(f"/{self.name} rejected the goal", reason="rejected")
                 )
-            self.accepted, self.result_future = handle, handle.get_result_async()
+            self.accepted, self.result_future = handle, self.robot.request(handle.get_result_async)
             self.deadline = now + self.robot.timeouts.goal
         if not self.result_future.done():
             if now > self.deadline:
@@ -114,7 +120,7 @@ class RosGoal:
         self._end(SkillResult.failure(f"/{self.name}: goal cancelled", reason="cancelled"))
 
     def _cancel_on_robot(self) -> None:
-        self.robot.wait(self.accepted.cancel_goal_async(), 2.0)
+        self.robot.wait(self.robot.request(self.accepted.cancel_goal_async), 2.0)
 
     def _check_server(self, now: float) -> None:
         """RobotLostError when the server has been gone for ``timeouts.lost`` seconds."""
@@ -186,6 +192,11 @@ class RosRobot:
         self.state_client = self.node.create_client(GetSceneState, STATE)
         self.executor = SingleThreadedExecutor(context=context)
         self.executor.add_node(self.node)
+        # rclpy files a request's future only after sending it: a reply the spinner takes in
+        # between is dropped ("Ignoring unexpected goal response"), the goal never answers. So
+        # requests are sent (request()) and replies taken (_spin) under one lock.
+        self.lock = threading.Lock()
+        self.stopping = threading.Event()
         self.spinner = threading.Thread(target=self._spin, daemon=True, name="ros2-spin")
         self.spinner.start()
         self.believed: tuple[float, float, float] = scene.config.base
@@ -197,14 +208,23 @@ class RosRobot:
 
     def _spin(self) -> None:
         try:
-            self.executor.spin()
+            while not self.stopping.is_set():
+                with self.lock:
+                    self.executor.spin_once(timeout_sec=0.005)
+                time.sleep(0.0005)  # a sender waiting for the lock gets it
         except Exception:  # the context was shut down under it
             log.debug("ROS 2 spinner stopped", exc_info=True)
 
+    def request(self, send: Callable[[], T]) -> T:
+        """``send()`` (a goal, result, cancel or service request) while no reply is taken."""
+        with self.lock:
+            return send()
+
     def shutdown(self) -> None:
         """Stop spinning; the node goes with its context (never blocks on a busy spinner)."""
-        self.executor.shutdown(timeout_sec=2.0)
+        self.stopping.set()
         self.spinner.join(timeout=2.0)
+        self.executor.shutdown(timeout_sec=2.0)
         if not self.spinner.is_alive():
             self.node.destroy_node()
 
@@ -234,7 +254,7 @@ class RosRobot:
 
         if not self.state_client.service_is_ready():
             return False
-        future = self.state_client.call_async(GetSceneState.Request())
+        future = self.request(lambda: self.state_client.call_async(GetSceneState.Request()))
         if not self.wait(future, self.timeouts.accept):
             self.state_client.remove_pending_request(future)
             return False
