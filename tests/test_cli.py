@@ -176,3 +176,23 @@ def test_old_eager_flag_means_no_defer_and_warns(
     assert data["stats"]["stream_calls"]["reach"] >= 1  # computed while planning
     assert all(step["deferred"] == [] for step in data["plan"]["steps"])
     assert "--eager is deprecated: say --no-defer" in caplog.text
+
+
+def test_robot_command_is_the_worlds_own_with_one_parser(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """``llmpas robot pybullet``: the ROS 2 world's registered command parses its options (the
+    command line defines none of them); an unknown robot is one line naming the known ones."""
+    from llmpas.experiments.worlds import ROBOTS
+    from llmpas.worlds.ros2 import command
+
+    assert ROBOTS["pybullet"] == "llmpas.worlds.ros2.command:run"
+    with pytest.raises(SystemExit) as done:
+        main(["robot", "pybullet", "--help"])
+    assert done.value.code == 0
+    shown = capsys.readouterr().out
+    assert shown == command.parser().format_help()  # the world's parser, the only one
+    assert shown.count("--stall") >= 1 and "usage: llmpas robot pybullet" in shown
+    assert main(["robot", "nao", "x"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "'nao'" in err and "pybullet" in err

@@ -313,45 +313,20 @@ def _cmd_pddlstream(args: argparse.Namespace, console: Console) -> int:
 
 
 def _cmd_robot(args: argparse.Namespace, console: Console) -> int:
-    """Serve the PyBullet robot as a ROS 2 node (the ros2 world's robot; docs/ros.md)."""
-    from llmpas.experiments.worlds import load_world
+    """Serve a simulated robot: the command of the world that owns it (its own parser)."""
+    from llmpas.experiments.worlds import robot_command
 
-    known = load_world("pybullet").scenarios()  # loads pybullet quietly
-    if args.scenario not in known:
-        raise CliError(f"no scenario {args.scenario!r}; known: {', '.join(sorted(known))}")
-    try:
-        from llmpas.worlds.ros2 import node
-    except ImportError as e:
-        raise CliError(f'robot: needs the ros extra (pip install -e ".[ros]"): {e}') from None
-    argv = [args.scenario]
-    for option in ("seed", "domain", "log_dir", "ready"):
-        if getattr(args, option) is not None:
-            argv += [f"--{option.replace('_', '-')}", str(getattr(args, option))]
-    for fault in ("reject", "abort", "stall"):
-        for kind in getattr(args, fault):
-            argv += [f"--{fault}", kind]
-    return node.main(argv)
+    return robot_command(args.kind)(args.args)
 
 
 def _add_robot(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
-        "robot", help="serve a simulated robot over ROS 2 for --world ros2 (docs/ros.md)"
+        "robot",
+        help="serve a simulated robot over ROS 2 for --world ros2 (docs/ros.md); "
+        "llmpas robot pybullet --help for its options",
     )
-    p.add_argument("kind", choices=["pybullet"], help="the simulated robot")
-    p.add_argument("scenario", help="its scenario (object-loss, nominal, ...)")
-    p.add_argument("--seed", type=int, help="the scenario's seed (default: its own)")
-    p.add_argument("--domain", type=int, help="ROS_DOMAIN_ID (default: $ROS_DOMAIN_ID, else 57)")
-    p.add_argument("--log-dir", help="ROS_LOG_DIR and the node's files (default: a temp folder)")
-    p.add_argument("--ready", help="write this file once every server is up")
-    for fault in ("reject", "abort", "stall"):
-        p.add_argument(
-            f"--{fault}",
-            action="append",
-            default=[],
-            metavar="KIND",
-            help=f"{fault} goals of KIND (navigate_to_pose, follow_joint_trajectory, look, "
-            "or a skill: grasp, release, move_arm, ...); for tests",
-        )
+    p.add_argument("kind", help="the simulated robot: pybullet")
+    p.add_argument("args", nargs=argparse.REMAINDER, help="the robot's own options")
     p.set_defaults(handler=_cmd_robot)
 
 

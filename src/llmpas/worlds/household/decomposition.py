@@ -23,7 +23,7 @@ from llmpas.execution.context import Belief, Context
 from llmpas.execution.csubbt import Constraint, SubAction, SubtreeSpec, Values
 from llmpas.execution.plan_builder import Recipe, failing_literal
 from llmpas.execution.space import Dimension
-from llmpas.execution.world import Observation, SkillResult
+from llmpas.execution.world import Observation, Outcome, SkillResult, finish
 from llmpas.language.logic import Atom, Not
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics
@@ -153,7 +153,7 @@ class Builder(KitchenBuilder):
             waypoints = motion.waypoints[1:] if isinstance(motion, Motion) else (target,)
             result = OK
             for wp in waypoints:  # follow the deferred drive, way point by way point
-                result = ctx.robot.move_base(wp)
+                result = finish(ctx.robot.move_base(wp))
                 if not result.ok:
                     break
             return result
@@ -174,7 +174,7 @@ class Builder(KitchenBuilder):
         return None if out is not None else f"no collision-free drive to {target}"
 
     def _arm(self, name: str, where: Callable[[Values], Placement], phase: str) -> SubAction:
-        def run(v: Values, ctx: Context) -> SkillResult:
+        def run(v: Values, ctx: Context) -> Outcome:
             p = where(v)
             region = self.house.layout.regions.get(p.region)
             z = region.height if region is not None else 0.8
@@ -288,7 +288,7 @@ class Builder(KitchenBuilder):
         mistaken: dict[str, str] = {}
 
         def release(v: Values, c: Context) -> SkillResult:
-            result = c.robot.release(obj, v["spot"])
+            result = finish(c.robot.release(obj, v["spot"]))
             if not result.ok and result.data.get("reason") == "not_held":
                 held = c.robot.holding()
                 if held is not None and held != obj and held in self.house.objects:
@@ -450,7 +450,7 @@ class Builder(KitchenBuilder):
         return SkillResult.failure(f"no free spot for the {cover} on {furniture}")
 
     def _put_down(self, cover: str, spot: Placement, ctx: Context) -> SkillResult:
-        result = ctx.robot.release(cover, spot)
+        result = finish(ctx.robot.release(cover, spot))
         if result.ok:
             for a in ctx.belief.matching("atpose", cover):
                 ctx.belief.values[a.args[1]] = spot  # the cover now stands beside
@@ -462,7 +462,7 @@ class Builder(KitchenBuilder):
         revealed: dict[str, Atom] = {}
 
         def run(v: Values, c: Context) -> SkillResult:
-            result = c.robot.open(region) if opening else c.robot.close(region)
+            result = finish(c.robot.open(region) if opening else c.robot.close(region))
             reason = result.data.get("reason")
             if result.ok or reason not in ("jammed", "obstructed"):
                 return result
@@ -494,7 +494,7 @@ class Builder(KitchenBuilder):
         revealed: dict[str, Atom] = {}
 
         def run(v: Values, c: Context) -> SkillResult:
-            result = c.robot.process(obj, region, step.action)
+            result = finish(c.robot.process(obj, region, step.action))
             prop = result.data.get("reason")
             if not result.ok and prop in PROPERTIES:  # e.g. it will not cool: it is dirty
                 revealed["fact"] = Atom(str(prop), (obj,))

@@ -17,7 +17,7 @@ from llmpas.execution.context import Belief, Context
 from llmpas.execution.csubbt import Constraint, SubAction, SubtreeSpec, Values
 from llmpas.execution.plan_builder import Recipe
 from llmpas.execution.space import Dimension
-from llmpas.execution.world import Observation, SkillResult
+from llmpas.execution.world import Observation, Outcome, SkillResult
 from llmpas.language.logic import Atom
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics
@@ -146,7 +146,7 @@ class Builder(KitchenBuilder):
             ctx.perceive(f"{name}_path", path)
             return None
 
-        def run(v: Values, ctx: Context) -> SkillResult:
+        def run(v: Values, ctx: Context) -> Outcome:
             here = ctx.robot.base_conf()
             if isinstance(here, BaseConf) and here.distance(v[key]) < 1e-3:
                 return SkillResult.success("already there")
@@ -186,7 +186,7 @@ class Builder(KitchenBuilder):
     def _arm(
         self, name: str, where: Callable[[Values], ObjectPose], phase: str, obj: str
     ) -> SubAction:
-        def run(v: Values, ctx: Context) -> SkillResult:
+        def run(v: Values, ctx: Context) -> Outcome:
             return ctx.robot.move_arm(ArmGoal(where(v), v["grasp"], phase, obj))
 
         reach = Constraint(
