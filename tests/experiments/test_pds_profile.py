@@ -87,8 +87,9 @@ def test_llmpas_profile_splits_its_solve_and_counts_streams(tmp_path: Path) -> N
     assert abs(sum(s.cpu for s in prof.per_stream) - prof.streams) < 0.01 + 0.1 * prof.streams
 
 
-#: A stand-in PDDLStream: its solve calls one stream instance's next_results twice (one output,
-#: then none) and a "search" child process, so the prelude's counts are what is tested.
+#: A stand-in PDDLStream: its solve starts a profiler of its own (as PDDLStream's examples do),
+#: calls one stream instance's next_results twice (one output, then none) and a "search" child
+#: process, so the prelude's counts are what is tested.
 FAKE = {
     "pddlstream/__init__.py": "",
     "pddlstream/algorithms/__init__.py": "",
@@ -119,9 +120,14 @@ FAKE = {
     ),
     "pddlstream/algorithms/meta.py": textwrap.dedent(
         """
+        import cProfile, pstats
         from pddlstream.language.stream import StreamInstance
         from pddlstream.algorithms.downward import run_search
         def solve(problem, **kw):
+            own = cProfile.Profile()  # as PDDLStream's Profiler: must not end the bench's
+            own.enable()
+            own.disable()
+            pstats.Stats(own).print_stats(3)
             inst = StreamInstance()
             inst.next_results()
             inst.next_results()
