@@ -23,7 +23,9 @@ def test_successor_reads_as_the_state_built_from_scratch() -> None:
         state.atoms_with("on", 0, "a")
         assert Atom("clear", ("b",)) in state or True
         adds = {_atom(rng) for _ in range(rng.randint(0, 4))}
-        dels = {_atom(rng) for _ in range(rng.randint(0, 4))} | set(rng.sample(sorted(facts, key=str), min(2, len(facts))))
+        dels = {_atom(rng) for _ in range(rng.randint(0, 4))} | set(
+            rng.sample(sorted(facts, key=str), min(2, len(facts)))
+        )
         expected = (facts - dels) | adds
         got = state.successor(adds, dels)
         fresh = State(expected)

@@ -49,8 +49,8 @@ from typing import Any
 
 from rich.console import Console
 
-from llmpas.experiments.benchmarks import Bench
 from llmpas.experiments import pds_profile
+from llmpas.experiments.benchmarks import Bench
 from llmpas.experiments.jobs import (
     ExecutorSpec,
     Job,
@@ -213,7 +213,9 @@ def _command(p: Payload, summary: Path) -> tuple[list[str], dict[str, str], str]
     python = p.python or sys.executable
     boot = _BOOT
     if p.profile:  # the script's run inside the profiler, after the prelude's imports
-        body = "\n".join("    " + ln for ln in _BOOT.split("if len(parts) > 1:")[1].splitlines()[1:])
+        body = "\n".join(
+            "    " + ln for ln in _BOOT.split("if len(parts) > 1:")[1].splitlines()[1:]
+        )
         boot = _BOOT.split("if len(parts) > 1:")[0] + pds_profile.PDDLSTREAM_PRELUDE
         boot += "\ndef _script():\n    if len(parts) > 1:\n" + body + "\n_profiled(_script)\n"
     argv = [python, "-c", boot, str(p.seed), script, *p.instance.args]
@@ -526,7 +528,7 @@ def run_bench(config: PdsBenchConfig, console: Console | None = None) -> Report:
     rows = summarise(trials)
     out = config.out_dir
     out.mkdir(parents=True, exist_ok=True)
-    written = (
+    written: tuple[Path, ...] = (
         write_csv(out / "pddlstream.csv", [asdict(t) for t in trials]),
         atomic_write(out / "pddlstream.md", markdown_table(rows, config)),
         out / "pddlstream.png",

@@ -48,7 +48,7 @@ from typing import Any
 #: Environment variable naming the folder a profiled trial writes its profile to.
 ENV = "LLMPAS_PDS_PROFILE"
 
-_COMMON = r'''
+_COMMON = r"""
 import cProfile as _cP, json as _js, os as _os, resource as _rs, signal as _sg, time as _tm
 _PDIR = _os.environ["LLMPAS_PDS_PROFILE"]
 _STREAMS, _KIDS = {}, {"translate": 0.0}
@@ -97,12 +97,12 @@ def _profiled(fn):
         with open(_os.path.join(_PDIR, "profile.json"), "w") as f:
             _js.dump({"streams": _STREAMS, "translate_children": _KIDS["translate"],
                       "children": _kids()}, f)
-'''
+"""
 
 #: llmpas: the stream store's calls and the translator's forked child, measured apart.
 LLMPAS_PRELUDE = (
     _COMMON
-    + r'''
+    + r"""
 from llmpas.planning import instances as _inst, downward as _dw
 _wrap_stream(_inst.StreamStore, "call", lambda self, a: a[0].bound.schema.name,
              lambda out: out is not None)
@@ -114,19 +114,19 @@ def _translate_measured(*a, **k):
     finally:
         _KIDS["translate"] += _kids() - before
 _dw._translate = _translate_measured
-'''
+"""
 )
 
 #: PDDLStream: its stream, function and predicate instances' calls of the implementations.
 PDDLSTREAM_PRELUDE = (
     _COMMON
-    + r'''
+    + r"""
 from pddlstream.language import stream as _st, function as _fn
 def _ok(out):
     return any(r.is_successful() for r in out[0])
 _wrap_stream(_st.StreamInstance, "next_results", lambda self, a: self.external.name, _ok)
 _wrap_stream(_fn.FunctionInstance, "next_results", lambda self, a: self.external.name, _ok)
-'''
+"""
 )
 
 Func = tuple[str, int, str]  # pstats' key: file, line, function name
@@ -215,7 +215,10 @@ RULES: Mapping[str, Rules] = {
             None,
         ),
         skeletons=_named(("pddlstream/algorithms/skeleton.py", "new_skeleton")),
-        iterations=(_named(("pddlstream/algorithms/refinement.py", "iterative_plan_streams")), None),
+        iterations=(
+            _named(("pddlstream/algorithms/refinement.py", "iterative_plan_streams")),
+            None,
+        ),
     ),
 }
 
@@ -262,7 +265,9 @@ class Profile:
 CATEGORIES = ("instantiation", "translation", "search", "streams", "other")
 
 
-def entered(stats: Mapping[Func, Any], match: Match, callers_only: Match | None = None) -> tuple[float, int]:
+def entered(
+    stats: Mapping[Func, Any], match: Match, callers_only: Match | None = None
+) -> tuple[float, int]:
     """(CPU, calls) of the functions ``match`` selects, counted where they are entered from a
     function it does not select (or, with ``callers_only``, from one that selects)."""
     cpu, calls = 0.0, 0
@@ -297,7 +302,10 @@ def read_profile(folder: Path, planner: str) -> Profile | None:
     trans_kids = float(extra.get("translate_children", 0.0))
     per_stream = tuple(
         sorted(
-            (StreamCount(k, int(v[0]), int(v[1]), round(float(v[2]), 4)) for k, v in extra["streams"].items()),
+            (
+                StreamCount(k, int(v[0]), int(v[1]), round(float(v[2]), 4))
+                for k, v in extra["streams"].items()
+            ),
             key=lambda s: -s.cpu,
         )
     )
@@ -353,14 +361,20 @@ def profile_table(instance: str, by_planner: Mapping[str, Sequence[Profile]]) ->
         cells = []
         for p in planners:
             vals = [float(getattr(x, attr)) for x in by_planner[p]]
-            cells.append(f"{_med(vals):.2f}" if "CPU" in label or attr in CATEGORIES or attr == "motion" else f"{_med(vals):g}")
+            cells.append(
+                f"{_med(vals):.2f}"
+                if "CPU" in label or attr in CATEGORIES or attr == "motion"
+                else f"{_med(vals):g}"
+            )
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
     lines += ["", "| stream | planner | calls | with output | CPU s |", "|---|---|---:|---:|---:|"]
     for p in planners:
         names = {s.name for prof in by_planner[p] for s in prof.per_stream}
         rows = []
         for name in names:
-            got = [next((s for s in prof.per_stream if s.name == name), None) for prof in by_planner[p]]
+            got = [
+                next((s for s in prof.per_stream if s.name == name), None) for prof in by_planner[p]
+            ]
             calls = _med([s.calls if s else 0 for s in got])
             ok = _med([s.successes if s else 0 for s in got])
             cpu = _med([s.cpu if s else 0.0 for s in got])
