@@ -163,3 +163,25 @@ def test_pddlstream_side_is_profiled_from_outside(tmp_path: Path) -> None:
     row = dict(zip(csv[0].split(","), line.split(","), strict=True))
     assert int(row["searches"]) == 1 and float(row["search"]) > 0.02
     assert float(row["solve"]) >= float(row["search"])
+
+
+def _middle() -> None:
+    _outer()
+
+
+def _top() -> None:
+    _middle()
+
+
+def test_outermost_counts_a_nested_entry_point_once() -> None:
+    from llmpas.experiments.pds_profile import outermost
+
+    prof = cProfile.Profile(time.process_time)
+    prof.enable()
+    _top()
+    prof.disable()
+    prof.create_stats()
+    stats = prof.stats  # type: ignore[attr-defined]
+    match = lambda f: f[2] in ("_top", "_outer")  # noqa: E731 - _outer under _top via _middle
+    assert entered(stats, match)[0] > 0.07  # summed: counted twice
+    assert 0.03 < outermost(stats, match) < 0.06
