@@ -278,3 +278,15 @@ def test_a_stream_output_equal_to_an_init_value_is_that_object(goal_value) -> No
     assert plan[-1].args[1] == goal_value
     # one object for 3: the init's facts and the stream's are about the same one
     assert ("next", 2, 3) in cert.all_facts and ("Point", 3) in cert.all_facts
+
+
+def test_placeholders_are_shared_only_for_shared_debug_streams() -> None:
+    """One placeholder per stream output when every stream gives one value per stream and
+    output (SHARED_DEBUG), as PDDLStream's shared optimistic objects; one per instance else."""
+    from llmpas.pddlstream.solving import _shared_values
+
+    def problem(stream_map: object) -> PDDLProblem:
+        return PDDLProblem("", {}, "", stream_map, [], ())
+
+    assert _shared_values(problem("shared_debug")) and _shared_values(problem("SHARED_DEBUG"))
+    assert not _shared_values(problem("debug")) and not _shared_values(problem({}))

@@ -98,3 +98,47 @@ def test_focused_keeps_no_skeleton() -> None:
         result = solve(problem(bad=bad), config, classical=Counting())
         assert result.plan is not None
         assert Counting.searches == searches
+
+
+FLUENT_STREAMS = """
+(define (stream shelf)
+  (:stream sample-spot :inputs (?i) :domain (Item ?i) :outputs (?s) :certified (Spot ?i ?s))
+  (:stream test-stable :inputs (?i ?s) :domain (Spot ?i ?s) :fluents (Placed)
+    :certified (Stable ?i ?s)))
+"""
+
+
+def test_a_plan_with_a_fluent_stream_is_drawn_again_too() -> None:
+    """The same shelf with a fluent test (it sees the state of the step that uses it): the
+    failed binding is kept and drawn again, its fluent test evaluated again in the new
+    values' context, rather than searched again (before: a plan with a fluent instance was
+    never kept, and each failed draw cost a search)."""
+    seen: list[list[object]] = []
+
+    def stable(item: str, spot: int, fluents: list[object]) -> bool:
+        seen.append(list(fluents))
+        return spot >= 3
+
+    def spots(item: str):  # type: ignore[no-untyped-def]
+        k = 0
+        while True:
+            yield (k,)
+            k += 1
+
+    prob = Problem.create(
+        parse_domain(DOMAIN),
+        parse_streams(FLUENT_STREAMS),
+        init=[("Item", "box")],
+        goal=[("Placed", "box")],
+        implementations={"sample-spot": sampler(spots), "test-stable": test(stable)},
+    )
+    counts = {}
+    for algorithm in (ALGORITHM, "focused"):
+        Counting.searches = 0
+        config = PlannerConfig(algorithm=algorithm, max_time=120, defer=False)
+        result = solve(prob, config, classical=Counting())
+        assert result.plan is not None, result.message
+        assert result.plan.objects[result.plan.steps[0].args[1]] == 3
+        counts[algorithm] = Counting.searches
+    assert seen and all(f == [] for f in seen)  # nothing placed before the step: no fluents
+    assert counts[ALGORITHM] < counts["focused"]

@@ -49,6 +49,7 @@ from typing import Any
 
 from rich.console import Console
 
+from llmpas.experiments import pds_profile
 from llmpas.experiments.benchmarks import Bench
 from llmpas.experiments.jobs import (
     ExecutorSpec,
@@ -120,6 +121,7 @@ class PdsBenchConfig:
     pddlstream: Path | None = None  # a PDDLStream checkout: run it side by side
     python: str | None = None  # its interpreter (default: this one)
     out_dir: Path = Path("results/pddlstream")
+    profile: bool = False  # each trial under cProfile, split by category (pds_profile)
     jobs: int = 1
     executor: ExecutorSpec = field(default_factory=ExecutorSpec)
 
@@ -170,6 +172,7 @@ class Payload:
     timeout: float
     pddlstream: str | None = None
     python: str | None = None
+    profile: bool = False
 
 
 @dataclass(frozen=True)
@@ -193,8 +196,13 @@ def _command(p: Payload, summary: Path) -> tuple[list[str], dict[str, str], str]
     script = str(Path(p.folder) / p.instance.script)
     env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}  # scripts' GUIs off
     env["MPLBACKEND"] = "Agg"
+    if p.profile:
+        env[pds_profile.ENV] = str(summary.parent)
     if p.planner == "llmpas":
         boot = "import sys; from llmpas.cli import main; sys.exit(main())"
+        if p.profile:
+            boot = pds_profile.LLMPAS_PRELUDE + "\nimport sys\nfrom llmpas.cli import main\n"
+            boot += "sys.exit(_profiled(main))\n"
         argv = [sys.executable, "-c", boot, "pddlstream", "--seed", str(p.seed)]
         argv += ["--summary", str(summary), script, *p.instance.args]
         # from the top of the script's package, as python -m: the folder a script is in may
@@ -203,7 +211,14 @@ def _command(p: Payload, summary: Path) -> tuple[list[str], dict[str, str], str]
     assert p.pddlstream is not None
     env["PYTHONPATH"] = os.pathsep.join(x for x in (p.pddlstream, env.get("PYTHONPATH", "")) if x)
     python = p.python or sys.executable
-    argv = [python, "-c", _BOOT, str(p.seed), script, *p.instance.args]
+    boot = _BOOT
+    if p.profile:  # the script's run inside the profiler, after the prelude's imports
+        body = "\n".join(
+            "    " + ln for ln in _BOOT.split("if len(parts) > 1:")[1].splitlines()[1:]
+        )
+        boot = _BOOT.split("if len(parts) > 1:")[0] + pds_profile.PDDLSTREAM_PRELUDE
+        boot += "\ndef _script():\n    if len(parts) > 1:\n" + body + "\n_profiled(_script)\n"
+    argv = [python, "-c", boot, str(p.seed), script, *p.instance.args]
     return argv, env, p.pddlstream
 
 
@@ -240,6 +255,9 @@ def run_trial(p: Payload) -> dict[str, Any]:
             "exit_code": code,
         }
         found = _from_summary(summary) if p.planner == "llmpas" else _from_output(text)
+        if p.profile:
+            prof = pds_profile.read_profile(summary.parent, p.planner)
+            found["profile"] = None if prof is None else prof.as_dict()
         last = [ln for ln in text.splitlines() if ln.strip()][-1:] or [""]
         state = "timeout" if killed else ("ok" if code == 0 or found["solved"] else "failed")
         note = f"killed after {p.timeout:g} s" if killed else ("" if code == 0 else last[0][:300])
@@ -339,8 +357,8 @@ def jobs_for(config: PdsBenchConfig, instances: Sequence[Instance]) -> list[Job[
     out = []
     for inst in instances:
         text = (folder / inst.script).read_text(errors="replace")
-        for planner in config.planners:
-            for seed in range(config.seeds):
+        for seed in range(config.seeds):  # both planners per seed: interleaved in time
+            for planner in config.planners:
                 payload = Payload(
                     planner,
                     str(folder),
@@ -349,6 +367,7 @@ def jobs_for(config: PdsBenchConfig, instances: Sequence[Instance]) -> list[Job[
                     config.timeout,
                     root if planner == "pddlstream" else None,
                     config.python if planner == "pddlstream" else None,
+                    config.profile,
                 )
                 mine = code if planner == "llmpas" else root
                 digest = fingerprint([asdict(payload), text, mine])
@@ -509,14 +528,53 @@ def run_bench(config: PdsBenchConfig, console: Console | None = None) -> Report:
     rows = summarise(trials)
     out = config.out_dir
     out.mkdir(parents=True, exist_ok=True)
-    written = (
+    written: tuple[Path, ...] = (
         write_csv(out / "pddlstream.csv", [asdict(t) for t in trials]),
         atomic_write(out / "pddlstream.md", markdown_table(rows, config)),
         out / "pddlstream.png",
     )
     plot(trials, rows, written[-1])
     console.print(markdown_table(rows, config))
+    if config.profile:
+        written += _profile_report(results, out, console)
     return Report(trials, rows, written)
+
+
+def _profile_report(
+    results: Sequence[dict[str, Any]], out: Path, console: Console
+) -> tuple[Path, ...]:
+    """``profile.md`` (a table per instance), ``profile.csv`` (one row per trial) and
+    ``profile-<instance>.png`` (stacked bars per planner)."""
+    by: dict[str, dict[str, list[pds_profile.Profile]]] = {}
+    flat = []
+    for r in results:
+        d = r.get("profile")
+        if not d:
+            continue
+        prof = pds_profile.Profile.from_dict(d)
+        by.setdefault(r["instance"], {}).setdefault(r["planner"], []).append(prof)
+        row = {k: v for k, v in prof.as_dict().items() if k != "per_stream"}
+        flat.append({"planner": r["planner"], "instance": r["instance"], "seed": r["seed"],
+                     "solved": r["solved"], **row})  # fmt: skip
+    text = "\n".join(pds_profile.profile_table(i, p) for i, p in by.items())
+    files = [
+        atomic_write(out / "profile.md", _PROFILE_HEAD + text),
+        write_csv(out / "profile.csv", flat),
+    ]
+    for inst, planners in by.items():
+        png = out / f"profile-{pds_profile.slug(inst)}.png"
+        pds_profile.profile_plot(inst, planners, png)
+        files.append(png)
+    console.print(text)
+    return tuple(files)
+
+
+_PROFILE_HEAD = (
+    "Profiled trials (`--profile`): each planner's process under cProfile with a CPU clock, "
+    "its stream calls counted per stream from outside, Fast Downward's processes measured "
+    "apart (llmpas/experiments/pds_profile.py says what each category holds). cProfile slows "
+    "Python code more than C code: the split, not the sum, is the figure.\n\n"
+)
 
 
 # ---------------------------------------------------------------------------------------- CLI
@@ -543,6 +601,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="PYTHON",
         help="the interpreter of PDDLStream's own environment (default: this one)",
     )
+    p.add_argument(
+        "--profile",
+        action="store_true",
+        help="profile each run: CPU per category and stream, searches, plans (profile.md)",
+    )
     p.add_argument("--jobs", type=int, default=1, help="parallel runs (> 1: contended CPU)")
     p.add_argument("--out", default="results/pddlstream", help="folder for table, plot, cache")
     add_executor_arguments(p)
@@ -557,6 +620,7 @@ def command(args: argparse.Namespace, console: Console) -> int:
         pddlstream=Path(args.pddlstream) if args.pddlstream else None,
         python=args.pddlstream_python,
         out_dir=Path(args.out),
+        profile=args.profile,
         jobs=args.jobs,
         executor=executor_from_args(args),
     )

@@ -84,12 +84,47 @@ class State:
     """A set of atoms with a per-predicate index; derived atoms are computed on demand."""
 
     def __init__(self, facts: Iterable[Atom]) -> None:
-        self.facts = frozenset(facts)
+        self._facts: frozenset[Atom] | None = frozenset(facts)
         self._groups: dict[str, list[Atom]] = defaultdict(list)
-        for a in self.facts:
+        for a in self._facts:
             self._groups[a.predicate].append(a)
         self._sorted: set[str] = set()
         self._by_arg: dict[tuple[str, int], dict[str, list[Atom]]] = {}
+        self._sets: dict[str, frozenset[Atom]] = {}
+
+    @property
+    def facts(self) -> frozenset[Atom]:
+        if self._facts is None:  # a successor's: gathered on first use
+            self._facts = frozenset(a for group in self._groups.values() for a in group)
+        return self._facts
+
+    def successor(self, adds: set[Atom], dels: set[Atom]) -> State:
+        """The state ``(self - dels) | adds``, sharing the atoms of the predicates neither
+        touches (and their indexes) with this one: a step of a plan costs what it changes,
+        not the size of the state."""
+        touched = {a.predicate for a in adds} | {a.predicate for a in dels}
+        child = State.__new__(State)
+        child._facts = None
+        child._groups = defaultdict(list, self._groups)
+        for p in touched:
+            old = self._groups.get(p, [])
+            kept = [a for a in old if a not in dels or a in adds]
+            have = self._members(p)
+            kept += sorted((a for a in adds if a.predicate == p and a not in have), key=_args)
+            if kept:
+                child._groups[p] = kept
+            else:
+                child._groups.pop(p, None)
+        child._sorted = self._sorted - touched
+        child._by_arg = {k: v for k, v in self._by_arg.items() if k[0] not in touched}
+        child._sets = {k: v for k, v in self._sets.items() if k not in touched}
+        return child
+
+    def _members(self, predicate: str) -> frozenset[Atom]:
+        members = self._sets.get(predicate)
+        if members is None:
+            members = self._sets[predicate] = frozenset(self._groups.get(predicate, ()))
+        return members
 
     def atoms(self, predicate: str) -> list[Atom]:
         """The state's atoms of ``predicate``, sorted by arguments (on first use: joins
@@ -121,7 +156,9 @@ class State:
         return 0 if group is None else len(group)
 
     def __contains__(self, a: Atom) -> bool:
-        return a in self.facts
+        if self._facts is not None:
+            return a in self._facts
+        return a in self._members(a.predicate)
 
 
 class Evaluator:
@@ -265,7 +302,7 @@ class Evaluator:
         bound = [(k, v) for k, v in bound if not is_var(v)]
         if len(bound) == len(a.args):  # ground: a lookup
             ground = Atom(a.predicate, tuple(v for _, v in bound))
-            if ground in self.s.facts and self._typed_ok(env, a.args, types):
+            if ground in self.s and self._typed_ok(env, a.args, types):
                 yield dict(env)
             return
         candidates = (
@@ -459,6 +496,16 @@ class Semantics:
         base = {a for a in state.facts if a.predicate not in derived}
         return (base - dels) | adds, (cost if self.domain.uses_costs() else 1.0)
 
+    def successor(self, action: Action, args: tuple[str, ...], state: State) -> State:
+        """The state after the step (as :meth:`apply`), built from ``state`` by what the step
+        adds and deletes when derived atoms are computed on demand."""
+        if not (self._rules or not self.domain.derived):  # a full closure: computed again
+            return self.state(self.apply(action, args, state)[0])
+        adds: set[Atom] = set()
+        dels: set[Atom] = set()
+        self._effects(action.effects, self._env(action, args), state, adds, dels)
+        return state.successor(adds, dels)
+
     def _effects(
         self,
         effects: tuple[EffectItem, ...],
@@ -602,18 +649,17 @@ def preimage(
     goal: Formula | None = None,
 ) -> list[frozenset[Atom]] | None:
     """For each step (and the goal, last), the facts it relies on; None if the plan is invalid."""
-    facts = set(init)
+    state = sem.state(init)
     out: list[frozenset[Atom]] = []
     for name, args in steps:
         action = sem.domain.action(name)
-        state = sem.state(facts)
         got = Support(sem, state).of(action.precondition, sem._env(action, args))
         if got is None:
             return None
         out.append(got)
-        facts, _ = sem.apply(action, args, state)
+        state = sem.successor(action, args, state)
     if goal is not None:
-        got = Support(sem, sem.state(facts)).of(goal)
+        got = Support(sem, state).of(goal)
         if got is None:
             return None
         out.append(got)

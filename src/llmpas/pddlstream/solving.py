@@ -23,7 +23,7 @@ from llmpas.errors import PlannerError
 from llmpas.language.logic import Atom
 from llmpas.pddlstream.expressions import INF, Action, Certificate, PDDLProblem, Solution
 from llmpas.pddlstream.translate import Translation, Unsupported, translate
-from llmpas.pddlstream.wrappers import Notes
+from llmpas.pddlstream.wrappers import SHARED_DEBUG, Notes
 from llmpas.planning import PlannerConfig, PlanResult, PlanStatus
 from llmpas.planning import solve as plan
 from llmpas.planning.fluents import unsupported_fluents
@@ -124,6 +124,7 @@ def solve(
         search=search,
         max_empty_samples=GENERATOR_NONE_ENDS_CALL,
         init_identity=True,  # as in PDDLStream
+        share_placeholders=_shared_values(problem),
     )
     started = _cpu()
     tr = translate(problem, stream_info, unit_costs=unit_costs, notes=ctx.notes)
@@ -142,6 +143,18 @@ def solve(
     if not result.solved:
         log.warning("pddlstream: no plan (%s): %s", result.status.value, result.message)
     return solution
+
+
+def _shared_values(problem: PDDLProblem) -> bool:
+    """Whether every stream gives one value per stream and output whatever its inputs
+    (``stream_map=SHARED_DEBUG``): then one placeholder per stream output (and level) stands
+    for what evaluation will give, as PDDLStream's shared optimistic objects do, where one per
+    instance only multiplies the objects the translator grounds (kitchen/run.py: 66 s of CPU
+    in the translator with one per instance, under the script's limit on a loaded machine
+    not even one search; 0.3 s shared). A task unsolvable so is planned again with one per
+    instance (``share_placeholders``)."""
+    m = problem.stream_map
+    return isinstance(m, str) and m.lower() == SHARED_DEBUG
 
 
 def _cpu() -> float:

@@ -754,11 +754,10 @@ _MAX_EFFORT = 4  # evaluations of one skeleton, the first included
 
 
 def _resamplable(done: _Evaluated) -> bool:
-    """Whether a plan that did not hold is kept as a skeleton: it needed streams (none of them
-    fluent: their contexts change with the values) and has effort left."""
-    return (
-        bool(done.needed) and done.effort < _MAX_EFFORT and all(i.step is None for i in done.needed)
-    )
+    """Whether a plan that did not hold is kept as a skeleton: it needed streams and has effort
+    left. Fluent instances are evaluated again in the contexts the new values give (the
+    binding computes each one's context from the plan's steps before it)."""
+    return bool(done.needed) and done.effort < _MAX_EFFORT
 
 
 def _resample(run: Run, skeletons: list[_Evaluated], opt: list[OptInstance]) -> Plan | None:
