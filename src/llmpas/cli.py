@@ -324,9 +324,11 @@ def _cmd_robot(args: argparse.Namespace, console: Console) -> int:
     except ImportError as e:
         raise CliError(f'robot: needs the ros extra (pip install -e ".[ros]"): {e}') from None
     argv = [args.scenario]
-    for option in ("seed", "domain", "log_dir", "ready"):
+    for option in ("seed", "domain", "log_dir", "ready", "robot_profile"):
         if getattr(args, option) is not None:
             argv += [f"--{option.replace('_', '-')}", str(getattr(args, option))]
+    if args.standard:
+        argv.append("--standard")
     for fault in ("reject", "abort", "stall"):
         for kind in getattr(args, fault):
             argv += [f"--{fault}", kind]
@@ -343,6 +345,18 @@ def _add_robot(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
     p.add_argument("--domain", type=int, help="ROS_DOMAIN_ID (default: $ROS_DOMAIN_ID, else 57)")
     p.add_argument("--log-dir", help="ROS_LOG_DIR and the node's files (default: a temp folder)")
     p.add_argument("--ready", help="write this file once every server is up")
+    p.add_argument(
+        "--robot-profile",
+        metavar="FILE",
+        help="its profile: action and topic names, namespace, QoS of its publishers "
+        "(YAML, or a shipped name: pybullet, pybullet-standard)",
+    )
+    p.add_argument(
+        "--standard",
+        action="store_true",
+        help="serve standard interfaces only: Nav2, ros2_control's two actions, TF, "
+        "joint_states, robot_description, vision_msgs/Detection3DArray",
+    )
     for fault in ("reject", "abort", "stall"):
         p.add_argument(
             f"--{fault}",
@@ -421,7 +435,10 @@ def _options(args: argparse.Namespace) -> Any:
     from llmpas.worlds.api import RunOptions
 
     return RunOptions(
-        planner=_planner_config(args), seed=args.seed, gui=bool(getattr(args, "gui", False))
+        planner=_planner_config(args),
+        seed=args.seed,
+        gui=bool(getattr(args, "gui", False)),
+        robot_profile=getattr(args, "robot_profile", None),
     )
 
 
@@ -673,6 +690,12 @@ def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     )
     _add_world_option(p)
     p.add_argument("--gui", action="store_true", help="open the simulator window (PyBullet)")
+    p.add_argument(
+        "--robot-profile",
+        metavar="FILE",
+        help="the robot's profile (YAML: names, namespace, QoS, places; a shipped name: "
+        "pybullet, pybullet-standard) for worlds that drive a robot (ros2; docs/ros.md)",
+    )
     p.add_argument("--no-llm", action="store_true", help="plan and execute once, no reasoning")
     add_llm_argument(p, replan=True)
     p.add_argument("--method", default="flp", choices=method_names())
