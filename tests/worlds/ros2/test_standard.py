@@ -26,6 +26,10 @@ topics:
   wrist_detections: {name: wrist/detections, qos: {reliability: best_effort}}
   tf: {name: tf, qos: {reliability: reliable, durability: volatile, depth: 100}}
   tf_static: {name: tf_static, qos: {reliability: reliable, durability: transient_local}}
+places:
+  - {name: shelf, frame: odom, footprint: [[-3.5, -3.2], [-2.5, -3.2], [-2.5, -2.8], [-3.5, -2.8]]}
+furniture:
+  - {name: shelf, frame: odom, size: [1.0, 0.4, 1.6], pose: [-3.0, -3.0, 0.8, 0.0]}
 """
 
 GRAPH = """
@@ -77,6 +81,8 @@ with ros_context(from_environment(Path(sys.argv[1]))) as context, open_client(Fa
     robot.wait_for_servers()
     out["names"] = sorted(robot.names.values())
     out["start"] = list(robot.believed)
+    out["places"] = [[p.name, p.frame, [list(v) for v in p.footprint]] for p in robot.places]
+    out["furniture"] = list(robot.scene.pose("shelf")[0])
     look = robot.look()
     out["look"] = [[d.obj, d.region, d.pose.x, d.pose.y, d.pose.z] for d in look.detections]
     out["viewed"] = list(look.viewed)
@@ -149,6 +155,9 @@ def test_a_namespaced_standard_robot_driven_through_a_profile(
         "/robot1/navigate_to_pose",
     ]
     assert out["start"] == [0.0, 0.0, 0.0]
+    # the profile's static geometry, from its frame (odom) into map, in the planning scene
+    assert out["places"][0][:2] == ["shelf", "map"] and len(out["places"][0][2]) == 4
+    assert [round(v, 6) for v in out["furniture"]] == [-3.0, -3.0, 0.8]
     # the robot starts facing table1, the cube on it: seen there, in map
     from llmpas.worlds.pybullet.run import resolve
 

@@ -22,7 +22,7 @@ import threading
 import time
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -36,7 +36,7 @@ from llmpas.worlds.pybullet.world import look_orientation
 from llmpas.worlds.ros2 import convert
 from llmpas.worlds.ros2.client import RobotUnavailableError, Timeouts
 from llmpas.worlds.ros2.node import FJT, GRIPPER, NAV, STANDARD, action_names
-from llmpas.worlds.ros2.profile import RobotProfile
+from llmpas.worlds.ros2.profile import Place, RobotProfile
 from llmpas.worlds.ros2.standard import nav2_reason
 from llmpas.worlds.ros2.tf import TfBuffer, TfError, Transform
 
@@ -252,6 +252,7 @@ class StandardRobot:
         self.images: list[Any] = []
         self.clock: Callable[[], tuple[int, int]] = lambda: (0, 0)
         self.goals = 0
+        self.places: tuple[Place, ...] = ()  # the profile's, in map (once TF has them)
 
     # ------------------------------------------------------------------ the graph
 
@@ -332,7 +333,37 @@ class StandardRobot:
                     )
                 time.sleep(0.02)
         self._check_description()
+        self._static_geometry()
         self.sync()
+
+    def _in_map(self, frame: str) -> Transform:
+        try:
+            return self.tf.lookup(self.profile.frames.map, frame)
+        except TfError as e:
+            raise RobotUnavailableError(f"the profile's frame {frame}: {e}") from None
+
+    def _static_geometry(self) -> None:
+        """The profile's places (footprints) and furniture (boxes) in ``map``; the furniture
+        joins the planning scene as obstacles."""
+        import pybullet as p
+
+        places = []
+        for place in self.profile.places:
+            to_map = self._in_map(place.frame)
+            points = tuple(to_map.apply((x, y, 0.0))[:2] for x, y in place.footprint)
+            places.append(replace(place, frame=self.profile.frames.map, footprint=points))
+        self.places = tuple(places)
+        c = self.scene.client
+        for item in self.profile.furniture:
+            if item.name in self.scene.bodies:
+                continue  # the scenario has it already
+            x, y, z, yaw = item.pose
+            at = self._in_map(item.frame) * Transform.planar(x, y, yaw, z)
+            half = [v / 2 for v in item.size]
+            shape = p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=c)
+            body = p.createMultiBody(0, shape, -1, list(at.translation), list(at.rotation),
+                                     physicsClientId=c)  # fmt: skip
+            self.scene.bodies[item.name] = int(body)
 
     def _has_base(self) -> bool:
         try:
@@ -611,7 +642,7 @@ class StandardRobot:
         except TfError as e:
             log.warning("detections in %s dropped: %s", frame, e)
             return Observation(())
-        places = set(self.scene.tables) | {p.name for p in self.profile.places}
+        places = set(self.scene.tables) | {p.name for p in self.places}
         known = {o.name: o for o in self.scene.config.objects}
         viewed: set[str] = set()
         seen: dict[str, tuple[tuple[float, float, float], float]] = {}
@@ -650,9 +681,9 @@ class StandardRobot:
             inside = abs(at[0] - bat[0]) <= half and abs(at[1] - bat[1]) <= half
             if b != name and inside and bottom < bat[2] + bowl.height - RIM_MARGIN:
                 return b
-        place = self.profile.place_of(at[0], at[1])
-        if place is not None:
-            return place
+        for place in self.places:
+            if place.contains(at[0], at[1]):
+                return place.name
         for t, rect in self.scene.tables.items():
             if rect.contains(at[0], at[1]):
                 return t
