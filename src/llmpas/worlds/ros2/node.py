@@ -44,7 +44,7 @@ from llmpas.worlds.pybullet.scene import FINGER_OPEN, Scene, open_client
 from llmpas.worlds.pybullet.values import ArmGoal, Grasp
 from llmpas.worlds.pybullet.world import PyBulletWorld
 from llmpas.worlds.ros2 import convert, standard
-from llmpas.worlds.ros2.env import RosEnv, from_environment, reclaim_shared_memory
+from llmpas.worlds.ros2.env import RosEnv, from_environment, missing_rmw, reclaim_shared_memory
 from llmpas.worlds.ros2.profile import LATCHED, ProfileError, RobotProfile
 from llmpas.worlds.ros2.profile import load as load_profile
 
@@ -566,6 +566,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
         env = from_environment(log_dir / "ros", args.domain, profile.rmw)
         resolve(args.scenario)
+        problem = missing_rmw(env.environ())
+        if problem is not None:
+            raise ValueError(problem)
     except ProfileError as e:
         sys.stderr.write(f"error: {e}\n")
         return 2

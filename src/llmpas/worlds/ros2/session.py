@@ -54,6 +54,7 @@ from llmpas.worlds.ros2.client import RobotUnavailableError, RosRobot, Timeouts
 from llmpas.worlds.ros2.env import (
     RosEnv,
     from_environment,
+    missing_rmw,
     random_domain,
     reclaim_shared_memory,
 )
@@ -307,6 +308,9 @@ class Ros2Plugin:
             )
         except ValueError as e:
             raise RosError(str(e)) from None
+        problem = missing_rmw(env.environ())
+        if problem is not None:
+            raise RosError(problem)
         with ExitStack() as stack:
             if not external:
                 extra = ("--robot-profile", profile.source) if profile.source else ()
