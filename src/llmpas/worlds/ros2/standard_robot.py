@@ -117,6 +117,7 @@ class _Goal:
             return
         self.failed = None
         robot.goals += 1
+        robot.moved_at = time.time()
         robot.on_goal(f"{self.name}/goal", "Goal", send.goal)
         self.sent = self.client.send_goal_async(
             send.goal,
@@ -252,6 +253,7 @@ class StandardRobot:
         self.images: list[Any] = []
         self.clock: Callable[[], tuple[int, int]] = lambda: (0, 0)
         self.goals = 0
+        self.moved_at = 0.0  # wall time the last goal was sent (detections older are stale)
         self.places: tuple[Place, ...] = ()  # the profile's, in map (once TF has them)
 
     # ------------------------------------------------------------------ the graph
@@ -619,14 +621,14 @@ class StandardRobot:
     # ------------------------------------------------------------------ Perception
 
     def _fresh(self, camera: str) -> Any | None:
-        """The next detections message of ``camera``'s topic (one that came after now)."""
+        """The latest detections of ``camera``'s topic taken since the last goal was sent (the
+        robot's motion since is in them), else the next one, within the look's wait."""
         look = self.profile.look(camera)
-        since = time.monotonic()
-        end = since + look.wait
+        end = time.monotonic() + look.wait
         while time.monotonic() < end:
             with self.lock:
                 got = self.detections.get(look.detections)
-            if got is not None and got[0] > since:
+            if got is not None and stamp_seconds(got[1].header.stamp) >= self.moved_at:
                 return got[1]
             time.sleep(0.01)
         log.warning("no fresh detections on %s within %g s", look.detections, look.wait)
