@@ -205,7 +205,9 @@ class RobotNode:
                 self.lock.release()
 
     def see(self) -> None:
-        """The mast and wrist cameras' detections (vision_msgs), in the cameras' frames."""
+        """The mast and wrist cameras' detections (vision_msgs), in the cameras' frames; the
+        robot's TF first, so that a client finds the transforms at the detections' stamp."""
+        self.publish()
         stamp = self._now()
         mast = standard.mast_detections(self.world, self.camera_rng)
         self.detections.publish(standard.detection_array(mast, standard.CAMERA_FRAME, stamp, self.world))
@@ -255,9 +257,10 @@ class RobotNode:
                 result = SkillResult.failure(f"{kind} aborted by the robot", reason="aborted")
             else:
                 result = act()
-            self.publish()
             if self.standard:
                 self.see()
+            else:
+                self.publish()
         if handle.is_cancel_requested:
             handle.canceled()
             return result, True
