@@ -1,9 +1,10 @@
 """The extras of llmpas, with the ROS 2 interface packages built from this checkout.
 
-``pip install -e ".[ros]"`` builds the wheels of ``ros/nav2_msgs``, ``ros/control_msgs``, ``ros/tf2_msgs``,
-``ros/vision_msgs`` and ``ros/llmpas_interfaces`` (their ``.action``/``.msg`` files, with the ROS wheels' code
-generators). A dependency on a folder needs an absolute ``file://`` URL, so it is computed here;
-everything else is in pyproject.toml (``[tool.llmpas.extras]``)."""
+``pip install -e ".[ros]"`` builds the wheels of ``ros/nav2_msgs``, ``ros/control_msgs``,
+``ros/tf2_msgs``, ``ros/vision_msgs`` and ``ros/llmpas_interfaces`` (their ``.action``/``.msg``
+files, with the ROS wheels' code generators). A dependency on a folder needs an absolute
+``file://`` URL, so it is computed here; everything else is in pyproject.toml
+(``[tool.llmpas.extras]``)."""
 
 from __future__ import annotations
 

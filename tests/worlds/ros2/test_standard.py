@@ -138,9 +138,7 @@ def test_a_standard_robot_serves_no_llmpas_interface(tmp_path: Path, start_robot
     }
 
 
-def test_a_namespaced_standard_robot_driven_through_a_profile(
-    tmp_path: Path, start_robot
-) -> None:
+def test_a_namespaced_standard_robot_driven_through_a_profile(tmp_path: Path, start_robot) -> None:
     """/robot1/...: Nav2 goals, TF for the base pose, a detector's Detection3DArray in the
     mast camera's frame resolved through TF, an unreachable goal's Nav2 error code as the
     failure's reason, and a trajectory llmpas planned."""

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from llmpas.execution.world import Observation, SkillResult
-from llmpas.worlds.pybullet.scene import HOME_CONF, Scene
+from llmpas.worlds.pybullet.scene import Scene
 from llmpas.worlds.pybullet.values import ArmGoal, BaseConf, ObjectPose
 from llmpas.worlds.ros2 import convert
 from llmpas.worlds.ros2.node import ACTIONS, FJT, GRIPPER, LOOK, NAV, SKILL, STATE, action_names

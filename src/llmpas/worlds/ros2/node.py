@@ -210,7 +210,9 @@ class RobotNode:
         self.publish()
         stamp = self._now()
         mast = standard.mast_detections(self.world, self.camera_rng)
-        self.detections.publish(standard.detection_array(mast, standard.CAMERA_FRAME, stamp, self.world))
+        self.detections.publish(
+            standard.detection_array(mast, standard.CAMERA_FRAME, stamp, self.world)
+        )
         wrist = standard.wrist_detections(self.world, self.camera_rng)
         base = self.profile.frames.base
         self.wrist.publish(standard.detection_array(wrist, base, stamp, self.world))
@@ -552,8 +554,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--ready", help="write this file once every server is up")
     parser.add_argument("--robot-profile", help="the robot's profile (YAML file or shipped name)")
     parser.add_argument(
-        "--standard", action="store_true", help="serve standard interfaces only (Nav2, "
-        "ros2_control, TF, joint_states, robot_description, vision_msgs)"
+        "--standard",
+        action="store_true",
+        help="serve standard interfaces only (Nav2, "
+        "ros2_control, TF, joint_states, robot_description, vision_msgs)",
     )
     for fault in ("reject", "abort", "stall"):
         parser.add_argument(f"--{fault}", action="append", default=[], metavar="KIND")
@@ -564,7 +568,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         profile = load_profile(args.robot_profile or "pybullet")
         if args.standard and not profile.standard:
             profile = (
-                load_profile("pybullet-standard") if not args.robot_profile
+                load_profile("pybullet-standard")
+                if not args.robot_profile
                 else replace(profile, interfaces="standard")
             )
         env = from_environment(log_dir / "ros", args.domain, profile.rmw)

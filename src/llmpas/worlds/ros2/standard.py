@@ -74,9 +74,7 @@ def _transform_msg(parent: str, child: str, t: Transform, stamp: Any) -> Any:
 
     m = TransformStamped()
     m.header.stamp, m.header.frame_id, m.child_frame_id = stamp, parent, child
-    m.transform.translation.x, m.transform.translation.y, m.transform.translation.z = (
-        t.translation
-    )
+    m.transform.translation.x, m.transform.translation.y, m.transform.translation.z = t.translation
     r = m.transform.rotation
     r.x, r.y, r.z, r.w = t.rotation
     return m

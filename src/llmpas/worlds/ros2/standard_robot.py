@@ -21,7 +21,7 @@ import math
 import threading
 import time
 import xml.etree.ElementTree as ET
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -110,18 +110,20 @@ class _Goal:
         self.result: Any = None
         self.gone: float | None = None
         self.sent: Any = None
+        self.failed: SkillResult | None = None
         if not self.client.server_is_ready() and not self.client.wait_for_server(
             timeout_sec=robot.timeouts.lost
         ):
             self.failed = SkillResult.failure(f"no {self.name} action server", reason="lost")
             return
-        self.failed = None
         robot.goals += 1
         robot.moved_at = time.time()
         robot.on_goal(f"{self.name}/goal", "Goal", send.goal)
         self.sent = self.client.send_goal_async(
             send.goal,
-            feedback_callback=lambda f: robot.on_goal(f"{self.name}/feedback", "Feedback", f.feedback),
+            feedback_callback=lambda f: robot.on_goal(
+                f"{self.name}/feedback", "Feedback", f.feedback
+            ),
         )
         self.deadline = time.monotonic() + robot.timeouts.accept
 
@@ -219,9 +221,7 @@ class StandardRobot:
         self.clients = {
             k: ActionClient(self.node, t, action_names(profile)[k]) for k, t in self.types.items()
         }
-        self.names = {
-            k: self.node.resolve_topic_name(action_names(profile)[k]) for k in self.types
-        }
+        self.names = {k: self.node.resolve_topic_name(action_names(profile)[k]) for k in self.types}
         self.tf = TfBuffer()
         self.lock = threading.Lock()
         self.joints: dict[str, float] = {}
@@ -330,9 +330,7 @@ class StandardRobot:
         for what, ready in needs:
             while not ready():
                 if time.monotonic() > deadline:
-                    raise RobotUnavailableError(
-                        f"no {what} within {self.timeouts.discover:g} s"
-                    )
+                    raise RobotUnavailableError(f"no {what} within {self.timeouts.discover:g} s")
                 time.sleep(0.02)
         self._check_description()
         self._static_geometry()
@@ -432,7 +430,9 @@ class StandardRobot:
             return SkillResult.failure(text, reason=reason, error_code=code)
         if action == FJT:
             return SkillResult.failure(
-                raw.error_string or f"trajectory {what}", reason=what, error_code=int(raw.error_code)
+                raw.error_string or f"trajectory {what}",
+                reason=what,
+                error_code=int(raw.error_code),
             )
         return SkillResult.failure(f"gripper {what}", reason=what)
 
@@ -673,7 +673,7 @@ class StandardRobot:
         return Observation(tuple(sorted(viewed)), tuple(dets))
 
     def _region(
-        self, name: str, at: tuple[float, float, float], bowls: dict[str, tuple[float, ...]]
+        self, name: str, at: tuple[float, float, float], bowls: Mapping[str, tuple[float, ...]]
     ) -> str | None:
         o = self.scene.config.obj(name)
         bottom = at[2] - o.origin_height
