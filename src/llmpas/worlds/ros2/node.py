@@ -169,7 +169,8 @@ class RobotNode:
     def _standard_topics(self, group: Any) -> None:
         """A standard robot's topics: TF, the robot's description (latched, as
         robot_state_publisher does), and a detector's Detection3DArray from the mast and wrist
-        cameras; state at 10 Hz, detections at 1 Hz (and after every goal)."""
+        cameras; state at 10 Hz, detections at 0.5 Hz and after every goal (the wrist camera's only
+        after a trajectory)."""
         from std_msgs.msg import String
         from tf2_msgs.msg import TFMessage
         from vision_msgs.msg import Detection3DArray
@@ -190,7 +191,7 @@ class RobotNode:
         self.tf_static.publish(standard.static_transforms(self.profile, self._now()))
         self.timers = [
             node.create_timer(0.1, lambda: self._idle(self.publish), callback_group=group),
-            node.create_timer(1.0, lambda: self._idle(self.see), callback_group=group),
+            node.create_timer(2.0, lambda: self._idle(self.see), callback_group=group),
         ]
 
     def _now(self) -> Any:
@@ -204,15 +205,17 @@ class RobotNode:
             finally:
                 self.lock.release()
 
-    def see(self) -> None:
-        """The mast and wrist cameras' detections (vision_msgs), in the cameras' frames; the
-        robot's TF first, so that a client finds the transforms at the detections' stamp."""
+    def see(self, mast: bool = True) -> None:
+        """The mast (unless ``mast`` is False) and wrist cameras' detections (vision_msgs), in
+        the cameras' frames; the robot's TF first, so that a client finds the transforms at
+        the detections' stamp."""
         self.publish()
         stamp = self._now()
-        mast = standard.mast_detections(self.world, self.camera_rng)
-        self.detections.publish(
-            standard.detection_array(mast, standard.CAMERA_FRAME, stamp, self.world)
-        )
+        if mast:
+            seen = standard.mast_detections(self.world, self.camera_rng)
+            self.detections.publish(
+                standard.detection_array(seen, standard.CAMERA_FRAME, stamp, self.world)
+            )
         wrist = standard.wrist_detections(self.world, self.camera_rng)
         base = self.profile.frames.base
         self.wrist.publish(standard.detection_array(wrist, base, stamp, self.world))
@@ -259,8 +262,8 @@ class RobotNode:
                 result = SkillResult.failure(f"{kind} aborted by the robot", reason="aborted")
             else:
                 result = act()
-            if self.standard:
-                self.see()
+            if self.standard:  # a motion of the arm changes the wrist camera's view only
+                self.see(mast=name != FJT)
             else:
                 self.publish()
         if handle.is_cancel_requested:

@@ -36,7 +36,7 @@ from llmpas.worlds.pybullet.world import look_orientation
 from llmpas.worlds.ros2 import convert
 from llmpas.worlds.ros2.client import RobotUnavailableError, Timeouts
 from llmpas.worlds.ros2.node import FJT, GRIPPER, NAV, STANDARD, action_names
-from llmpas.worlds.ros2.profile import Place, RobotProfile
+from llmpas.worlds.ros2.profile import CAMERAS, Place, RobotProfile
 from llmpas.worlds.ros2.standard import nav2_reason
 from llmpas.worlds.ros2.tf import TfBuffer, TfError, Transform
 
@@ -117,7 +117,7 @@ class _Goal:
             self.failed = SkillResult.failure(f"no {self.name} action server", reason="lost")
             return
         robot.goals += 1
-        robot.moved_at = time.time()
+        robot.moved(send.action)
         robot.on_goal(f"{self.name}/goal", "Goal", send.goal)
         self.sent = self.client.send_goal_async(
             send.goal,
@@ -253,7 +253,9 @@ class StandardRobot:
         self.images: list[Any] = []
         self.clock: Callable[[], tuple[int, int]] = lambda: (0, 0)
         self.goals = 0
-        self.moved_at = 0.0  # wall time the last goal was sent (detections older are stale)
+        # per camera, the wall time of the last goal that changed its view (older detections
+        # are stale): the base or the hand (objects move) changes both, the arm the wrist's
+        self.moved_at = {camera: 0.0 for camera in CAMERAS}
         self.places: tuple[Place, ...] = ()  # the profile's, in map (once TF has them)
 
     # ------------------------------------------------------------------ the graph
@@ -620,15 +622,22 @@ class StandardRobot:
 
     # ------------------------------------------------------------------ Perception
 
+    def moved(self, action: str) -> None:
+        now = time.time()
+        for camera in self.moved_at:
+            if action != FJT or camera != "mast":
+                self.moved_at[camera] = now
+
     def _fresh(self, camera: str) -> Any | None:
-        """The latest detections of ``camera``'s topic taken since the last goal was sent (the
-        robot's motion since is in them), else the next one, within the look's wait."""
+        """The latest detections of ``camera``'s topic taken since the last goal that changed
+        its view was sent (the robot's motion since is in them), else the next one, within the
+        look's wait."""
         look = self.profile.look(camera)
         end = time.monotonic() + look.wait
         while time.monotonic() < end:
             with self.lock:
                 got = self.detections.get(look.detections)
-            if got is not None and stamp_seconds(got[1].header.stamp) >= self.moved_at:
+            if got is not None and stamp_seconds(got[1].header.stamp) >= self.moved_at[camera]:
                 return got[1]
             time.sleep(0.01)
         log.warning("no fresh detections on %s within %g s", look.detections, look.wait)
