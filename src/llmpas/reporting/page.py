@@ -575,6 +575,7 @@ def _round(run: RunRecord, r: Round, images: Images) -> Markup:
     parts = [
         tag("h2", f"Round {r.index} ", _status_badge(r.status)),
         tag("div", "goal ", tag("code", r.goal or "—"), class_="small"),
+        *([tag("p", r.note, class_="note")] if r.note else []),
         tag("div", *top, class_="split"),
         _trees(run, r, images),
     ]

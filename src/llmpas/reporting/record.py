@@ -168,6 +168,7 @@ class Round:
     xml: tuple[str, ...]  # relative paths of its BehaviorTree.CPP files
     reasoning: Reasoning | None
     problems: tuple[str, ...] = ()  # files that could not be read
+    note: str = ""  # what the loop said of the round (a sweep's look, a substitution)
 
     @property
     def timeline(self) -> list[Any]:
@@ -302,6 +303,7 @@ def _read_round(folder: Path, i: int, d: Any) -> Round:
         xml=_xml_files(folder, where) if where else (),
         reasoning=Reasoning.of(reasoning) if reasoning else None,
         problems=tuple(problems),
+        note=get_str(d, "note"),
     )
 
 

@@ -7,12 +7,23 @@ belief, the decomposition of a plan into conditional subtrees, the robot and its
 prompt tables and a search model. This package is the only place that plans, executes and asks
 the LLM in a run; it imports no world. Its modules:
 
-- :mod:`~llmpas.system.loop`: round control, :func:`plan` and :func:`execute`,
-  :func:`close_loop` (its LLM: a factory of the session, :func:`fixed` for a plain backend);
-- :mod:`~llmpas.system.checks`: the :class:`GoalChecker` of the LLM's answers (reasoning's
-  ``Check``);
+- :mod:`~llmpas.system.loop`: round control (:func:`close_loop`, :class:`LoopSettings`);
+- :mod:`~llmpas.system.anomaly`: the anomaly being resolved (the one place that reads the
+  executor's report) and the memory of what was tried for it;
+- :mod:`~llmpas.system.consult`: the consultation (the method asked, the candidates of a
+  choosing method ranked), its answers checked by :mod:`~llmpas.system.checks` (the
+  :class:`GoalChecker`, reasoning's ``Check``), :mod:`~llmpas.system.candidates` and
+  :mod:`~llmpas.system.achievable`;
+- :mod:`~llmpas.system.goals`: the next goal (the task with the recovery goals kept, an
+  answer's goals staged in the order written), with :mod:`~llmpas.system.recovery`'s rules;
+- :mod:`~llmpas.system.acting`: :func:`plan` and :func:`execute`, memoised per round;
+- :mod:`~llmpas.system.backends`: the loop's LLM, a factory of the session (:func:`fixed` for
+  a plain backend), asked once per identical request and before the deadline;
+- :mod:`~llmpas.system.sweep`: an object-loss consultation's places, searched in order until
+  the object is seen, within a budget; :mod:`~llmpas.system.substitution`: a substitute for a
+  part of the task a known cause forbids, carried into the task;
+- :mod:`~llmpas.system.settings`: :class:`LoopSettings`;
 - :mod:`~llmpas.system.search`: the :class:`SearchMemory` (what was searched, what is left);
-- :mod:`~llmpas.system.recovery`: recovery goals kept true and staged in the order written;
 - :mod:`~llmpas.system.records`: rounds, results (belief and truth side by side), the Markdown
   report and the run folder;
 - :mod:`~llmpas.system.run`: the entry points :func:`run` and :func:`run_once`, which judge the
@@ -23,18 +34,10 @@ finish the task); the world's truth is read only by the truth judge (after the l
 labelled oracle.
 """
 
+from llmpas.system.acting import counted, execute, plan
+from llmpas.system.backends import LLMFactory, LLMFor, as_factory, fixed
 from llmpas.system.checks import UNJUDGED, GoalChecker
-from llmpas.system.loop import (
-    LLMFactory,
-    LLMFor,
-    LoopSettings,
-    as_factory,
-    close_loop,
-    counted,
-    execute,
-    fixed,
-    plan,
-)
+from llmpas.system.loop import LoopSettings, close_loop
 from llmpas.system.records import (
     LoopResult,
     LoopStatus,
@@ -47,6 +50,7 @@ from llmpas.system.records import (
 )
 from llmpas.system.run import judged, run, run_once, truth
 from llmpas.system.search import SearchMemory
+from llmpas.system.sweep import SweepBudget
 
 __all__ = [
     "UNJUDGED",
@@ -59,6 +63,7 @@ __all__ = [
     "OnRound",
     "Round",
     "SearchMemory",
+    "SweepBudget",
     "as_factory",
     "close_loop",
     "counted",

@@ -1,8 +1,9 @@
 """Candidate recovery goal sets for the choosing methods (``flp-choose`` and its controls):
 enumerated from the world's vocabulary, kept when the loop's own checks accept them.
 
-**What is enumerated.** The anomaly's objects and places: the failed step's arguments, the
-failed literal's, and the vocabulary's objects its reason names (``lid lies over bowl``). Single
+**What is enumerated.** The anomaly's objects and places
+(:meth:`~llmpas.system.anomaly.Anomaly.objects`: the failed step's arguments, the failed
+literal's, and the vocabulary's objects its reason names, ``lid lies over bowl``). Single
 literals are every grounding of a goal predicate that names one of them, both polarities, and,
 when one of them is lost, every look the vocabulary allows (``(scanned P)``); then conjunctions
 of two surviving literals of different predicates that share an object.
@@ -25,10 +26,8 @@ name, groundings sorted, a literal before its negation), singles before pairs: t
 from __future__ import annotations
 
 import itertools
-import re
 from collections.abc import Callable, Iterable, Sequence, Set
 
-from llmpas.execution.anomaly import AnomalyReport
 from llmpas.language.logic import Atom, Not
 from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal
 from llmpas.reasoning.tables import Vocabulary
@@ -36,19 +35,6 @@ from llmpas.reasoning.tables import Vocabulary
 MAX_SINGLES = 36  # single literals ranked, at most
 MAX_PAIRS = 6  # conjunctions of two ranked, at most
 PAIRED = 12  # the first singles pairs are made of
-_WORD = re.compile(r"[a-z][a-z0-9_-]*")
-
-
-def anomaly_objects(report: AnomalyReport, vocab: Vocabulary) -> set[str]:
-    """The vocabulary's objects the anomaly names: the failed step's arguments, the failed
-    literal's and those its reason mentions."""
-    known = vocab.objects
-    names = set(report.args)
-    c = report.constraint
-    atom = c.arg if isinstance(c, Not) else c
-    names |= set(getattr(atom, "args", ()))
-    names |= set(_WORD.findall(report.reason.lower()))
-    return {n for n in names if n in known}
 
 
 def enumerate_goals(
@@ -133,7 +119,6 @@ __all__ = [
     "MAX_PAIRS",
     "MAX_SINGLES",
     "accepted_as",
-    "anomaly_objects",
     "enumerate_goals",
     "first_accepted",
 ]

@@ -33,6 +33,7 @@ class Round:
     episode: Episode | None
     proposal: Proposal | None = None
     specs: tuple[SubtreeSpec, ...] = field(default=(), compare=False, repr=False)
+    note: str = ""  # what the loop says of the round (a sweep's look, a substitution)
 
     def to_json(self) -> dict[str, Any]:
         ep = self.episode
@@ -45,6 +46,8 @@ class Round:
         }
         if self.proposal is not None:
             out["reasoning"] = _proposal_json(self.proposal)
+        if self.note:
+            out["note"] = self.note
         return out
 
 
@@ -106,6 +109,10 @@ class LoopResult:
     error: str = ""  # what stopped the loop when it did not end by itself
     believed: bool | None = None  # the loop's verdict in the robot's belief (None: ``success``)
     truth: bool | None = None  # the task judged in the world's true state (None: not judged)
+    # the task the loop pursued at the end when it carried a substitute into it ("": as given),
+    # and what it substituted and why
+    task: str = ""
+    substitutions: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.status is None:
@@ -127,6 +134,7 @@ class LoopResult:
         return f"{believed}, {'truly done' if self.truth else 'truly not done'}"
 
     def to_json(self) -> dict[str, Any]:
+        substituted = {"task": self.task, "substitutions": list(self.substitutions)}
         return {
             "scenario": self.scenario,
             "success": self.success,
@@ -139,6 +147,7 @@ class LoopResult:
             "llm_time": round(self.llm_time, 3),
             "timings": {k: round(v, 3) for k, v in self.timings.items()},
             "rounds": [r.to_json() for r in self.rounds],
+            **(substituted if self.substitutions else {}),
         }
 
     def save(self, path: str | Path) -> Path:
@@ -159,10 +168,15 @@ def loop_markdown(result: LoopResult) -> str:
     lines = [title, "", f"**{verdict}**: {_md(result.message)}", ""]
     if result.truth is not None:
         lines += [f"Belief and truth: {result.verdicts}", ""]
+    if result.substitutions:
+        lines += [f"The task pursued: `{_md(result.task)}`", ""]
+        lines += [f"- substituted: {_md(s)}" for s in result.substitutions] + [""]
     for i, rnd in enumerate(result.rounds):
         ep = rnd.episode
         status = ep.status.value if ep else f"no plan ({rnd.plan.status.value})"
         lines += [f"## Round {i}: `{rnd.goal}` -> {status}", ""]
+        if rnd.note:
+            lines += [f"*{_md(rnd.note)}*", ""]
         if rnd.plan.plan is not None:
             lines += [
                 f"Plan ({len(rnd.plan.plan.steps)} actions, {rnd.plan.stats.total_time:.2f} s):",

@@ -19,7 +19,8 @@ from typing import Any
 
 from llmpas.language.problem import parse_formula
 from llmpas.reasoning.llm import LLM, LLMError, Request, Response
-from llmpas.system.loop import LLMFactory, LoopSettings, close_loop, fixed
+from llmpas.system.backends import LLMFactory, fixed
+from llmpas.system.loop import LoopSettings, close_loop
 from llmpas.system.records import (
     LoopResult,
     LoopStatus,
@@ -43,7 +44,8 @@ def run(
     """Open ``scenario`` in ``world``, run the closed loop, judge the task in the world's truth
     (where the world has one) and, with ``out``, write the run folder (``loop.json`` and
     ``loop.md`` after every step, each round's episode and subtrees, the world's own files).
-    ``llm``: a factory of the session, or a backend (read as :func:`~llmpas.system.loop.fixed`)."""
+    ``llm``: a factory of the session, or a backend (read as
+    :func:`~llmpas.system.backends.fixed`)."""
     hooks = [h for h in (on_round, _records_to(out)) if h is not None]
     save = None if out is None else (lambda r, session: save_loop(r, out, session))
     return _opened(world, scenario, llm, settings or LoopSettings(), options, hooks, save)
@@ -75,7 +77,9 @@ def _opened(
     t0 = time.perf_counter()
     with world.open(scenario, options or RunOptions()) as session:
         result = close_loop(session, llm, settings, _each(hooks) if hooks else None)
-        result = judged(result, session, settings.success, time.perf_counter() - t0)
+        # a task the loop carried a substitute into is judged as pursued (its intent, if any)
+        success = settings.success or result.task or None
+        result = judged(result, session, success, time.perf_counter() - t0)
         if save is not None:
             save(result, session)
     return result

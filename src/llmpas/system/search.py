@@ -17,6 +17,7 @@ from llmpas.execution.anomaly import AnomalyReport
 from llmpas.language.logic import Atom, Formula, atoms_of
 from llmpas.language.semantics import Semantics
 from llmpas.reasoning.goals import Literal
+from llmpas.system.anomaly import Anomaly
 from llmpas.worlds.api import SearchModel
 
 
@@ -47,10 +48,10 @@ class SearchMemory:
 
     def remember(self, report: AnomalyReport) -> None:
         """A failed detection: the places it looked at are searched for its object."""
-        if report.constraint_name == self.model.detection:
-            obj = report.constraint.args[0] if isinstance(report.constraint, Atom) else ""
+        obj = Anomaly(report).detected(self.model.detection)
+        if obj is not None:
             for place in self.model.looked_at(report):
-                self.searched_for(str(obj), place)
+                self.searched_for(obj, place)
 
     def searched_in(self, goal: Formula) -> None:
         """A search goal reached while an object is still lost: that place is searched."""

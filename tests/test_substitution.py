@@ -1,0 +1,70 @@
+"""Substitution keeps the rest of the task (issue #35, item 3). On a scenario of its own
+(tests/data/loop/stuck-drawer-two-chores.toml: two chores, the cube's drawer is stuck), the
+labelled oracle's substitute (another drawer) is carried into the task and the apple is still
+set out; before, the task was replanned with the stuck drawer in it and the run ended not done.
+The rule itself on a tiny domain written here: no known cause, no substitution."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from llmpas.experiments.worlds import ORACLE, run_loop
+from llmpas.language.domain import parse_domain
+from llmpas.language.logic import And, Atom
+from llmpas.system import loop_markdown
+from tests.test_system import clean_blackboard  # noqa: F401 (autouse)
+
+CHORES = str(Path(__file__).parent / "data" / "loop" / "stuck-drawer-two-chores.toml")
+
+
+def test_a_substitute_is_carried_into_the_task_and_the_other_chore_is_done() -> None:
+    result = run_loop(CHORES, ORACLE)
+    assert result.success and result.truth, result.message
+    assert "(on apple table2_right)" in result.task.lower()
+    assert "drawer2" not in result.task and "(on cube drawer" in result.task.lower()
+    assert len(result.substitutions) == 1 and "(jammed drawer2)" in result.substitutions[0]
+    page = loop_markdown(result)
+    assert "substituted:" in page and "jammed drawer2" in page
+
+
+SHELVES = parse_domain(
+    """(define (domain shelves)
+         (:requirements :strips :negative-preconditions)
+         (:predicates (box ?b) (shelf ?s) (stuck ?s) (dusty ?s) (at ?b ?s) (cracked ?b))
+         (:action put :parameters (?b ?s)
+                  :precondition (and (box ?b) (shelf ?s) (not (stuck ?s)) (not (cracked ?b))
+                                     (not (dusty ?s)))
+                  :effect (at ?b ?s))
+         (:action dust :parameters (?s) :precondition (shelf ?s) :effect (not (dusty ?s))))"""
+)
+KINDS = {Atom("box", (b,)) for b in ("red", "blue", "green")}
+KINDS |= {Atom("shelf", ("s1",)), Atom("shelf", ("s2",))}
+TASK = And((Atom("at", ("red", "s1")), Atom("at", ("blue", "s2"))))
+
+
+def test_a_static_fact_an_action_needs_false_is_a_known_cause() -> None:
+    from llmpas.system.substitution import Causes, substitution
+
+    causes = Causes.of(SHELVES)
+    assert causes.blocking == {"stuck", "cracked"}  # dusty: an action changes it
+    stuck = KINDS | {Atom("stuck", ("s1",))}
+    found = substitution(TASK, [Atom("at", ("red", "s2"))], stuck, causes)
+    assert found is not None and found.cause == Atom("stuck", ("s1",))
+    other = substitution(
+        TASK, [Atom("at", ("green", "s1"))], KINDS | {Atom("cracked", ("red",))}, causes
+    )
+    assert other is not None and other.replaced == Atom("at", ("red", "s1"))  # same kind
+
+
+def test_no_known_cause_no_substitution() -> None:
+    from llmpas.system.substitution import Causes, substitution
+
+    causes = Causes.of(SHELVES)
+    goals = [Atom("at", ("red", "s2"))]
+    assert substitution(TASK, goals, KINDS, causes) is None  # nothing says why
+    assert substitution(TASK, goals, KINDS | {Atom("dusty", ("s1",))}, causes) is None
+    assert substitution(TASK, goals, KINDS | {Atom("stuck", ("s9",))}, causes) is None
+    shelf = substitution(  # another object, not of the same kind: no substitute
+        TASK, [Atom("at", ("s2", "s1"))], KINDS | {Atom("cracked", ("red",))}, causes
+    )
+    assert shelf is None
