@@ -23,7 +23,7 @@ import time
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -41,6 +41,7 @@ from llmpas.worlds.ros2.standard import nav2_reason
 from llmpas.worlds.ros2.tf import TfBuffer, TfError, Transform
 
 log = logging.getLogger(__name__)
+T = TypeVar("T")
 
 
 def stamp_seconds(stamp: Any) -> float:
@@ -119,11 +120,13 @@ class _Goal:
         robot.goals += 1
         robot.moved(send.action)
         robot.on_goal(f"{self.name}/goal", "Goal", send.goal)
-        self.sent = self.client.send_goal_async(
-            send.goal,
-            feedback_callback=lambda f: robot.on_goal(
-                f"{self.name}/feedback", "Feedback", f.feedback
-            ),
+        self.sent = robot.request(
+            lambda: self.client.send_goal_async(
+                send.goal,
+                feedback_callback=lambda f: robot.on_goal(
+                    f"{self.name}/feedback", "Feedback", f.feedback
+                ),
+            )
         )
         self.deadline = time.monotonic() + robot.timeouts.accept
 
@@ -140,7 +143,7 @@ class _Goal:
             handle = self.sent.result()
             if not handle.accepted:
                 return SkillResult.failure(f"{self.name} rejected the goal", reason="rejected")
-            self.handle, self.result = handle, handle.get_result_async()
+            self.handle, self.result = handle, self.robot.request(handle.get_result_async)
             self.deadline = now + self.robot.timeouts.goal
         if not self.result.done():
             if now > self.deadline:
@@ -167,7 +170,7 @@ class _Goal:
 
     def cancel(self) -> None:
         if self.handle is not None:
-            future = self.handle.cancel_goal_async()
+            future = self.robot.request(self.handle.cancel_goal_async)
             self.robot.wait(future, 2.0)
 
 
@@ -244,6 +247,11 @@ class StandardRobot:
             )
         self.executor = SingleThreadedExecutor(context=context)
         self.executor.add_node(self.node)
+        # rclpy files a request's future only after sending it: a reply the spinner takes in
+        # between is dropped ("Ignoring unexpected goal response") and the goal never answers;
+        # so requests are sent (request()) and replies taken (_spin) under one lock
+        self.spin_lock = threading.Lock()
+        self.stopping = threading.Event()
         self.spinner = threading.Thread(target=self._spin, daemon=True, name="ros2-spin")
         self.spinner.start()
         self.skills = RecordingSkills(scene, rng)
@@ -262,13 +270,22 @@ class StandardRobot:
 
     def _spin(self) -> None:
         try:
-            self.executor.spin()
+            while not self.stopping.is_set():
+                with self.spin_lock:
+                    self.executor.spin_once(timeout_sec=0.005)
+                time.sleep(0.0005)  # a sender waiting for the lock gets it
         except Exception:
             log.debug("ROS 2 spinner stopped", exc_info=True)
 
+    def request(self, send: Callable[[], T]) -> T:
+        """``send()`` (a goal, result or cancel request) while no reply is being taken."""
+        with self.spin_lock:
+            return send()
+
     def shutdown(self) -> None:
-        self.executor.shutdown(timeout_sec=2.0)
+        self.stopping.set()
         self.spinner.join(timeout=2.0)
+        self.executor.shutdown(timeout_sec=2.0)
         if not self.spinner.is_alive():
             self.node.destroy_node()
 
