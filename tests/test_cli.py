@@ -144,12 +144,12 @@ def test_run_object_loss_is_the_pybullet_world_with_its_oracle(
 ) -> None:
     assert main(["run", "object-loss", "--llm", "oracle", "--out", str(tmp_path)]) == 0
     out = capsys.readouterr().out
-    assert "task done" in out and "(scanned table3)" in out  # the table no camera saw
+    assert "task done" in out and "(scanned table4)" in out  # the table no camera saw
     assert (tmp_path / "round-0" / "report.html").exists() and (tmp_path / "episode.gif").exists()
     assert list((tmp_path / "snapshots").glob("*.png"))
     loop = (tmp_path / "loop.md").read_text()  # both prompts and answers, the goals taken
     assert "#### first-look: prompt" in loop and "#### goals: answer" in loop
-    assert "(scanned table3)" in loop
+    assert "(scanned table4)" in loop
 
 
 def test_run_pybullet_options_and_unknown_scenarios_are_one_line(
@@ -176,3 +176,23 @@ def test_old_eager_flag_means_no_defer_and_warns(
     assert data["stats"]["stream_calls"]["reach"] >= 1  # computed while planning
     assert all(step["deferred"] == [] for step in data["plan"]["steps"])
     assert "--eager is deprecated: say --no-defer" in caplog.text
+
+
+def test_robot_command_is_the_worlds_own_with_one_parser(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """``llmpas robot pybullet``: the ROS 2 world's registered command parses its options (the
+    command line defines none of them); an unknown robot is one line naming the known ones."""
+    from llmpas.experiments.worlds import ROBOTS
+    from llmpas.worlds.ros2 import command
+
+    assert ROBOTS["pybullet"] == "llmpas.worlds.ros2.command:run"
+    with pytest.raises(SystemExit) as done:
+        main(["robot", "pybullet", "--help"])
+    assert done.value.code == 0
+    shown = capsys.readouterr().out
+    assert shown == command.parser().format_help()  # the world's parser, the only one
+    assert shown.count("--stall") >= 1 and "usage: llmpas robot pybullet" in shown
+    assert main(["robot", "nao", "x"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "'nao'" in err and "pybullet" in err

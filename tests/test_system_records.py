@@ -11,6 +11,7 @@ from pathlib import Path
 import py_trees
 import pytest
 
+from llmpas.errors import RobotLostError
 from llmpas.experiments.worlds import LoopConfig, run_loop
 from llmpas.reasoning.llm import LLMError, Request, Response
 from llmpas.system import LoopResult, LoopStatus, loop_markdown, save_records
@@ -71,6 +72,7 @@ def test_records_are_written_after_every_round_and_at_the_end(tmp_path: Path) ->
         (LLMError("openai:m at 127.0.0.1:9: HTTP 500 (3 attempts)"), "llm-error"),
         (KeyboardInterrupt(), "interrupted"),
         (RuntimeError("a bug"), "crashed"),
+        (RobotLostError("/navigate_to_pose vanished; ROS_DOMAIN_ID=7"), "robot-lost"),
     ],
 )
 def test_an_error_keeps_the_rounds_already_run(

@@ -313,59 +313,20 @@ def _cmd_pddlstream(args: argparse.Namespace, console: Console) -> int:
 
 
 def _cmd_robot(args: argparse.Namespace, console: Console) -> int:
-    """Serve the PyBullet robot as a ROS 2 node (the ros2 world's robot; docs/ros.md)."""
-    from llmpas.experiments.worlds import load_world
+    """Serve a simulated robot: the command of the world that owns it (its own parser)."""
+    from llmpas.experiments.worlds import robot_command
 
-    known = load_world("pybullet").scenarios()  # loads pybullet quietly
-    if args.scenario not in known:
-        raise CliError(f"no scenario {args.scenario!r}; known: {', '.join(sorted(known))}")
-    try:
-        from llmpas.worlds.ros2 import node
-    except ImportError as e:
-        raise CliError(f'robot: needs the ros extra (pip install -e ".[ros]"): {e}') from None
-    argv = [args.scenario]
-    for option in ("seed", "domain", "log_dir", "ready", "robot_profile"):
-        if getattr(args, option) is not None:
-            argv += [f"--{option.replace('_', '-')}", str(getattr(args, option))]
-    if args.standard:
-        argv.append("--standard")
-    for fault in ("reject", "abort", "stall"):
-        for kind in getattr(args, fault):
-            argv += [f"--{fault}", kind]
-    return node.main(argv)
+    return robot_command(args.kind)(args.args)
 
 
 def _add_robot(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser(
-        "robot", help="serve a simulated robot over ROS 2 for --world ros2 (docs/ros.md)"
+        "robot",
+        help="serve a simulated robot over ROS 2 for --world ros2 (docs/ros.md); "
+        "llmpas robot pybullet --help for its options",
     )
-    p.add_argument("kind", choices=["pybullet"], help="the simulated robot")
-    p.add_argument("scenario", help="its scenario (object-loss, nominal, ...)")
-    p.add_argument("--seed", type=int, help="the scenario's seed (default: its own)")
-    p.add_argument("--domain", type=int, help="ROS_DOMAIN_ID (default: $ROS_DOMAIN_ID, else 57)")
-    p.add_argument("--log-dir", help="ROS_LOG_DIR and the node's files (default: a temp folder)")
-    p.add_argument("--ready", help="write this file once every server is up")
-    p.add_argument(
-        "--robot-profile",
-        metavar="FILE",
-        help="its profile: action and topic names, namespace, QoS of its publishers "
-        "(YAML, or a shipped name: pybullet, pybullet-standard)",
-    )
-    p.add_argument(
-        "--standard",
-        action="store_true",
-        help="serve standard interfaces only: Nav2, ros2_control's two actions, TF, "
-        "joint_states, robot_description, vision_msgs/Detection3DArray",
-    )
-    for fault in ("reject", "abort", "stall"):
-        p.add_argument(
-            f"--{fault}",
-            action="append",
-            default=[],
-            metavar="KIND",
-            help=f"{fault} goals of KIND (navigate_to_pose, follow_joint_trajectory, look, "
-            "or a skill: grasp, release, move_arm, ...); for tests",
-        )
+    p.add_argument("kind", help="the simulated robot: pybullet")
+    p.add_argument("args", nargs=argparse.REMAINDER, help="the robot's own options")
     p.set_defaults(handler=_cmd_robot)
 
 
@@ -419,6 +380,30 @@ def _scenario_arg(world: str, name: str) -> str:
         raise CliError(f"scenario {name!r}: {e.strerror or e}") from None
 
 
+def _suite_task(world: str, path: str) -> tuple[Any, str | None]:
+    """A task file of the household suite (a scenario with a ``[judge]`` table) runs as
+    ``bench prompting`` runs it: its scenario, ended by its intent (``[judge] success``), so
+    that the same task, seed and LLM give the same rounds in both. Anything else is returned
+    as it is (no intent)."""
+    if world != "household" or not path.endswith(".toml"):
+        return path, None
+    import tomllib
+
+    try:
+        is_task = "judge" in tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return path, None  # the scenario reader reports it, naming the file and place
+    if not is_task:
+        return path, None
+    from llmpas.experiments.suite import SuiteError, load_task
+
+    try:
+        task = load_task(path)
+    except SuiteError as e:
+        raise CliError(str(e)) from None
+    return task.scenario, task.success
+
+
 @contextmanager
 def _naming(scenario: str) -> Iterator[None]:
     """Problem-language errors raised while the problem of a scenario file is built (its goal
@@ -435,10 +420,7 @@ def _options(args: argparse.Namespace) -> Any:
     from llmpas.worlds.api import RunOptions
 
     return RunOptions(
-        planner=_planner_config(args),
-        seed=args.seed,
-        gui=bool(getattr(args, "gui", False)),
-        robot_profile=getattr(args, "robot_profile", None),
+        planner=_planner_config(args), seed=args.seed, gui=bool(getattr(args, "gui", False))
     )
 
 
@@ -577,12 +559,17 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
 
     name = _world_name(args)
     world = load_world(name)
-    scenario = _scenario_arg(name, args.scenario)
+    path = _scenario_arg(name, args.scenario)
+    scenario, intent = _suite_task(name, path)
     try:
         method = MethodConfig(method=args.method, decoding=args.decoding, votes=args.votes)
         assists = parse_assists(args.assists or args.protocol)
         settings = LoopSettings(
-            method=method, max_rounds=args.rounds, deadline=args.deadline, assists=assists
+            method=method,
+            max_rounds=args.rounds,
+            deadline=args.deadline,
+            assists=assists,
+            success=intent,
         )
         options = _options(args)
     except ValueError as e:
@@ -594,7 +581,7 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
     status = escape(f"running {args.scenario} in {world.title} with {what} ...")
     kept = f" (the rounds so far are in {args.out})" if args.out else ""
     try:
-        with console.status(status), _naming(scenario):
+        with console.status(status), _naming(path):
             if llm is None:
                 result = run_once(world, scenario, options, args.out)
             else:
@@ -605,6 +592,9 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
         raise CliError(f"interrupted{kept}", ExitCode.INTERRUPTED) from None
     _print_rounds(result, console)
     about: dict[str, Any] = {"world": world.title, "task": result.rounds[0].goal}
+    description = world.scenarios().get(args.scenario)
+    if description:  # what happens in the scenario (where a moved object went), on the page
+        about["description"] = description
     if args.out and assists.label != "assisted":
         about["assists"] = assists.label
     if args.with_replan:
@@ -690,12 +680,6 @@ def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     )
     _add_world_option(p)
     p.add_argument("--gui", action="store_true", help="open the simulator window (PyBullet)")
-    p.add_argument(
-        "--robot-profile",
-        metavar="FILE",
-        help="the robot's profile (YAML: names, namespace, QoS, places; a shipped name: "
-        "pybullet, pybullet-standard) for worlds that drive a robot (ros2; docs/ros.md)",
-    )
     p.add_argument("--no-llm", action="store_true", help="plan and execute once, no reasoning")
     add_llm_argument(p, replan=True)
     p.add_argument("--method", default="flp", choices=method_names())

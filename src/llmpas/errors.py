@@ -64,6 +64,13 @@ class OutputError(LlmpasError):
     code = ExitCode.IO
 
 
+class RobotLostError(LlmpasError):
+    """The robot went away mid-run (a server of it vanished: its node was killed). Not an
+    anomaly to reason about: the run ends, naming the server and where it was looked for."""
+
+    code = ExitCode.FAILED
+
+
 def one_line(text: str, limit: int = 1000) -> str:
     """``text`` as one printable line: control characters (newlines, terminal escapes) and lone
     surrogates escaped (:func:`llmpas.safetext.printable`), the middle cut out when longer than
@@ -82,6 +89,7 @@ __all__ = [
     "LlmpasError",
     "OutputError",
     "PlannerError",
+    "RobotLostError",
     "UsageError",
     "one_line",
 ]

@@ -29,7 +29,8 @@ def test_the_main_job_writes_a_page_with_every_round_and_the_reasoning(main_job:
     for i in range(len(run.rounds)):
         assert f'id="round-{i}"' in page
     assert 'id="reasoning-0"' in page  # the anomaly went to the LLM
-    assert "(scanned table3)" in page  # the goals taken (the table no camera saw)
+    assert "(scanned table4)" in page  # the goals taken (the table no camera saw)
+    assert "scenario: " in page and "table4" in page  # where the cube went
     assert page.count("data:image/svg+xml;base64,") == 4  # CSubBT diagrams (graphviz)
     assert page.count("drawn above") == 1  # round 2's place is round 0's
     assert "<script" not in page

@@ -96,6 +96,7 @@ class Context:
     recorder: Recorder = field(default_factory=Recorder)
     # the constraint space of the subtree that is running (set by its Explore decorator)
     space: Any = None
+    polls: int = 0  # polls of skills that were still running (the executor waits a period)
 
     def perceive(self, key: str, value: Any) -> None:
         """Record a perception (e.g. a detected pose) for the running subtree's samplers."""

@@ -32,7 +32,7 @@ from py_trees.common import Access, Status
 from llmpas.execution.anomaly import AnomalyReport, Failure
 from llmpas.execution.context import Context
 from llmpas.execution.space import ConstraintSpace, Dimension, Exhausted
-from llmpas.execution.world import SkillResult
+from llmpas.execution.world import Outcome, SkillHandle, as_handle
 from llmpas.language.logic import Atom, Not
 
 log = logging.getLogger(__name__)
@@ -63,13 +63,19 @@ class Constraint:
 @dataclass(frozen=True)
 class SubAction:
     """An atomic sub-action: constraints, then a skill. A failed skill counts as a failure of
-    ``on_failure`` (its atom and culprits go to the report)."""
+    ``on_failure`` (its atom and culprits go to the report).
+
+    The skill returns a result or a handle (:mod:`llmpas.execution.world`); while it runs,
+    every tick polls it and checks the ``guards`` (say: the object to grasp is still seen).
+    A guard that fails cancels the skill and fails the sub-action with that guard's reason
+    (its culprits are resampled, like a constraint's)."""
 
     name: str
-    skill: Callable[[Values, Context], SkillResult]
+    skill: Callable[[Values, Context], Outcome]
     constraints: tuple[Constraint, ...] = ()
     needs: tuple[str, ...] = ()
     on_failure: Constraint | None = None
+    guards: tuple[Constraint, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -93,7 +99,8 @@ class SubtreeSpec:
             raise ValueError(f"subtree {self.label!r} has no sub-actions")
         known = {d.name for d in self.dims}
         for sa in self.sub_actions:
-            for n in (*sa.needs, *(x for c in sa.constraints for x in c.needs)):
+            checked = (*sa.constraints, *sa.guards)
+            for n in (*sa.needs, *(x for c in checked for x in c.needs)):
                 if n not in known:
                     raise ValueError(
                         f"subtree {self.label!r}: {sa.name} needs unknown dimension {n!r}"
@@ -142,24 +149,64 @@ class Check(_Node):
 
 
 class Act(_Node):
+    """Starts the skill (``initialise``), polls it every tick while it runs (``update``:
+    RUNNING), checking the guards, and cancels it when the tree stops it (``terminate``)."""
+
     def __init__(self, sub_action: SubAction, namespace: str) -> None:
         super().__init__(sub_action.name, namespace)
         self.sub_action = sub_action
+        self.handle: SkillHandle | None = None
+        self.values: Values = {}
+        self.early: Failure | None = None
+
+    def initialise(self) -> None:
+        sa = self.sub_action
+        self.handle, self.values, self.early = None, {}, None
+        try:
+            self.values = self.space.ensure(sa.needs)
+        except Exhausted as e:
+            c = sa.on_failure or _skill_constraint(sa)
+            self.early = Failure(sa.name, c, f"no value left for {e}", {}, True)
+            return
+        self.handle = as_handle(sa.skill(self.values, self.ctx))
 
     def update(self) -> Status:
         sa = self.sub_action
-        try:
-            values = self.space.ensure(sa.needs)
-        except Exhausted as e:
-            c = sa.on_failure or _skill_constraint(sa)
-            return self.fail(Failure(sa.name, c, f"no value left for {e}", {}, True))
-        result = sa.skill(values, self.ctx)
-        self.ctx.recorder.event(self.name, result.status.value, result.message, values)
+        if self.early is not None or self.handle is None:
+            early = self.early or Failure(sa.name, _skill_constraint(sa), "not started", {})
+            return self.fail(early)
+        result = self.handle.poll()
+        if result.running:
+            self.ctx.polls += 1
+            return self._guard()
+        self.handle = None
+        self.ctx.recorder.event(self.name, result.status.value, result.message, self.values)
         if result.ok:
             return Status.SUCCESS
         return self.fail(
-            Failure(sa.name, sa.on_failure or _skill_constraint(sa), result.message, dict(values))
+            Failure(
+                sa.name, sa.on_failure or _skill_constraint(sa), result.message, dict(self.values)
+            )
         )
+
+    def _guard(self) -> Status:
+        """RUNNING, or FAILURE when a guard fails (the skill is cancelled first)."""
+        for guard in self.sub_action.guards:
+            reason = guard.check(self.values, self.ctx)
+            if reason is not None:
+                self._cancel(f"{guard.name}: {reason}")
+                return self.fail(Failure(self.sub_action.name, guard, reason, dict(self.values)))
+        return Status.RUNNING
+
+    def terminate(self, new_status: Status) -> None:
+        if self.handle is not None:  # stopped while the skill runs (preempted, Ctrl-C)
+            self._cancel(f"stopped ({new_status.value})")
+
+    def _cancel(self, why: str) -> None:
+        handle, self.handle = self.handle, None
+        if handle is not None:
+            handle.cancel()
+            self.ctx.recorder.event(self.name, "cancelled", why, self.values)
 
 
 def _skill_constraint(sa: SubAction) -> Constraint:

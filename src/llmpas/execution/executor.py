@@ -3,12 +3,18 @@
 ``execute(specs, ctx)`` builds one py_trees tree (a memory sequence of the CSubBTs), ticks it until
 it succeeds, fails with an anomaly report, or runs out of its tick budget, and returns an
 :class:`Episode`: the immutable record of what happened.
+
+While a skill runs (a robot's goal), the tree keeps ticking, one tick per ``period``: each tick
+polls the skill and checks its guards, which may preempt it. Ctrl-C stops the tree, which
+cancels the running skill, and goes on as KeyboardInterrupt.
 """
 
 from __future__ import annotations
 
 import enum
 import json
+import logging
+import time
 import uuid
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -24,6 +30,8 @@ from llmpas.execution.csubbt import Explore, SubtreeSpec, build_subtree
 from llmpas.files import atomic_write
 from llmpas.language.logic import Atom
 
+log = logging.getLogger(__name__)
+
 
 class ExecStatus(enum.Enum):
     SUCCESS = "success"
@@ -33,11 +41,21 @@ class ExecStatus(enum.Enum):
 
 @dataclass(frozen=True)
 class ExecutorConfig:
-    max_ticks: int = 2_000  # every tick runs at least one node: this bounds any execution
+    """``max_ticks`` bounds the ticks that move the tree on (every one runs at least one
+    node); the ticks that only wait for a running skill are bounded by ``max_waits`` (and by
+    the skill's own timeout), one per ``period`` seconds."""
+
+    max_ticks: int = 2_000
+    period: float = 0.02  # seconds from one tick to the next while a skill runs
+    max_waits: int = 1_000_000
 
     def __post_init__(self) -> None:
         if self.max_ticks < 1:
             raise ValueError(f"max_ticks must be >= 1, got {self.max_ticks}")
+        if not 0.0 <= self.period <= 10.0:
+            raise ValueError(f"period must be in [0, 10] seconds, got {self.period}")
+        if self.max_waits < 1:
+            raise ValueError(f"max_waits must be >= 1, got {self.max_waits}")
 
 
 @dataclass(frozen=True)
@@ -103,16 +121,23 @@ def execute(
 ) -> Episode:
     config = config or ExecutorConfig()
     root, subtrees = build_tree(specs, ctx)
-    ticks = 0
+    ticks = waits = 0
     try:
-        while ticks < config.max_ticks:
+        while ticks - waits < config.max_ticks and waits < config.max_waits:
+            start, polls = time.monotonic(), ctx.polls
             root.tick_once()
             ticks += 1
             if root.status in (Status.SUCCESS, Status.FAILURE):
                 break
+            if ctx.polls != polls:  # a skill is running: the next tick comes a period later
+                waits += 1
+                time.sleep(max(0.0, config.period - (time.monotonic() - start)))
         return _episode(root, subtrees, ctx, ticks, config)
+    except KeyboardInterrupt:
+        log.warning("interrupted: stopping the behaviour tree (a running skill is cancelled)")
+        raise
     finally:
-        root.stop(Status.INVALID)
+        root.stop(Status.INVALID)  # terminate() of a running Act cancels its skill
         _release_blackboards(root)
 
 

@@ -106,8 +106,11 @@ class PlanBuilder:
     def max_samples(self) -> int:
         raise NotImplementedError
 
-    def forget_object(self, belief: Belief, obj: str) -> None:
-        """The object was not found where it was believed."""
+    def forget_object(self, belief: Belief, obj: str, place: str | None) -> None:
+        """The object was not found at ``place`` (the failed constraint's place, None when it
+        names none): forget where it is if the belief still has it there. A sighting elsewhere
+        made by a look of the same subtree is kept (what any look saw stays until a later look
+        contradicts it)."""
         raise NotImplementedError
 
     def after_step(self, step: PlanStep, v: Values, ctx: Context) -> None:
@@ -228,7 +231,10 @@ class PlanBuilder:
     def _forget(self, step: PlanStep) -> Callable[[Failure, Context], None]:
         def forget(failure: Failure, ctx: Context) -> None:
             if failure.constraint.name == self.detection and step.args:
-                self.forget_object(ctx.belief, step.args[0])  # not where it was believed
+                atom = failure.constraint.atom(failure.values)
+                args = atom.args if isinstance(atom, Atom) else ()
+                place = str(args[1]) if len(args) > 1 else None
+                self.forget_object(ctx.belief, step.args[0], place)  # not where it was believed
 
         return forget
 

@@ -2,11 +2,16 @@
 
 Worlds (the household world, the PyBullet world, test doubles) implement these Protocols. The
 executor never reads a world's true state: everything it believes comes through perception.
+
+A skill returns a :class:`SkillHandle` (a goal the robot is carrying out: ``poll()`` it,
+``cancel()`` it) or a plain :class:`SkillResult` (a skill that ran to its end: an in-process
+world's), which the executor reads as a :class:`Completed` handle.
 """
 
 from __future__ import annotations
 
 import enum
+import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -16,6 +21,7 @@ from typing import Any, Protocol, runtime_checkable
 class SkillStatus(enum.Enum):
     SUCCESS = "success"
     FAILURE = "failure"
+    RUNNING = "running"  # only from a handle's poll(): the skill has not ended yet
 
 
 @dataclass(frozen=True)
@@ -33,6 +39,10 @@ class SkillResult:
     def ok(self) -> bool:
         return self.status is SkillStatus.SUCCESS
 
+    @property
+    def running(self) -> bool:
+        return self.status is SkillStatus.RUNNING
+
     @classmethod
     def success(cls, message: str = "", **data: Any) -> SkillResult:
         return cls(SkillStatus.SUCCESS, message, data)
@@ -40,6 +50,65 @@ class SkillResult:
     @classmethod
     def failure(cls, message: str, **data: Any) -> SkillResult:
         return cls(SkillStatus.FAILURE, message, data)
+
+    @classmethod
+    def still_running(cls, message: str = "", **data: Any) -> SkillResult:
+        return cls(SkillStatus.RUNNING, message, data)
+
+
+@runtime_checkable
+class SkillHandle(Protocol):
+    """A skill under way (a robot's action goal). ``poll()`` never blocks: a RUNNING result
+    until the skill ends, then its final result (the same at every later poll). ``cancel()``
+    asks the robot to stop it (nothing once it has ended)."""
+
+    def poll(self) -> SkillResult: ...
+
+    def cancel(self) -> None: ...
+
+
+@dataclass(frozen=True)
+class Completed:
+    """The handle of a skill that has already ended (an in-process world's skill)."""
+
+    result: SkillResult
+
+    def __post_init__(self) -> None:
+        if self.result.running:
+            raise ValueError("a completed skill's result cannot be RUNNING")
+
+    def poll(self) -> SkillResult:
+        return self.result
+
+    def cancel(self) -> None:
+        """Nothing to stop: the skill has ended."""
+
+
+Outcome = SkillResult | SkillHandle  # what a skill returns
+
+
+def as_handle(outcome: Outcome) -> SkillHandle:
+    """A skill's outcome as a handle: a plain result is a :class:`Completed` one."""
+    if isinstance(outcome, SkillResult):
+        return Completed(outcome)
+    if not isinstance(outcome, SkillHandle):
+        raise TypeError(f"a skill returned {type(outcome).__name__}, not a result or a handle")
+    return outcome
+
+
+def finish(outcome: Outcome, period: float = 0.002) -> SkillResult:
+    """Wait for a skill's end (polling every ``period`` s): for the parts of a skill that
+    chain several skills, and for perception. Ctrl-C cancels it, then goes on."""
+    handle = as_handle(outcome)
+    try:
+        result = handle.poll()
+        while result.running:
+            time.sleep(period)
+            result = handle.poll()
+    except KeyboardInterrupt:
+        handle.cancel()
+        raise
+    return result
 
 
 @dataclass(frozen=True)
@@ -74,21 +143,22 @@ class Observation:
 
 @runtime_checkable
 class Robot(Protocol):
-    """Skills of a mobile manipulator. Parameters are world values (poses, configurations)."""
+    """Skills of a mobile manipulator. Parameters are world values (poses, configurations).
+    Each skill returns a plain result (it has ended) or a handle to poll."""
 
-    def move_base(self, conf: Any) -> SkillResult: ...
+    def move_base(self, conf: Any) -> Outcome: ...
 
-    def move_arm(self, target: Any) -> SkillResult: ...
+    def move_arm(self, target: Any) -> Outcome: ...
 
-    def grasp(self, obj: str, grasp: Any) -> SkillResult: ...
+    def grasp(self, obj: str, grasp: Any) -> Outcome: ...
 
-    def release(self, obj: str, pose: Any) -> SkillResult: ...
+    def release(self, obj: str, pose: Any) -> Outcome: ...
 
-    def open(self, container: str) -> SkillResult: ...
+    def open(self, container: str) -> Outcome: ...
 
-    def close(self, container: str) -> SkillResult: ...
+    def close(self, container: str) -> Outcome: ...
 
-    def process(self, obj: str, appliance: str, how: str) -> SkillResult:
+    def process(self, obj: str, appliance: str, how: str) -> Outcome:
         """clean / heat / cook / cool ``obj`` with ``appliance``."""
         ...
 

@@ -85,7 +85,7 @@ from llmpas.reasoning.methods import (
     MethodConfig,
     method_names,
 )
-from llmpas.system import LLMFor, LoopResult
+from llmpas.system import LLMFor, LoopResult, SweepBudget
 from llmpas.worlds.api import RunOptions
 
 log = logging.getLogger(__name__)
@@ -131,6 +131,9 @@ class PromptingConfig:
     protocols: tuple[str, ...] = ("assisted",)  # paper | assisted | assists joined by "+"
     ablation: bool = False  # also: no assist, each assist alone, all (the methods' rows)
     votes: int = 1  # self-consistency: sampled answers per consultation (1: off)
+    # places one object-loss consultation's sweep searches at most (1: one place a
+    # consultation, the loop before #35's sweeps)
+    sweep_places: int = SweepBudget().places
 
     def __post_init__(self) -> None:
         if not self.protocols:
@@ -157,6 +160,8 @@ class PromptingConfig:
             raise ValueError(f"repairs must be >= 0, got {self.repairs}")
         if self.max_rounds < 1:
             raise ValueError(f"max_rounds must be >= 1, got {self.max_rounds}")
+        if self.sweep_places < 1:
+            raise ValueError(f"sweep_places must be >= 1, got {self.sweep_places}")
         if self.max_tokens < 1:
             raise ValueError(f"max_tokens must be >= 1, got {self.max_tokens}")
         if self.max_time <= 0:
@@ -217,6 +222,7 @@ def loop_config(
             votes=1 if is_oracle else config.votes,
         ),
         max_rounds=config.max_rounds,
+        sweep=SweepBudget(places=config.sweep_places),
         options=RunOptions(planner=PlannerConfig(max_time=config.max_time)),
     )
 
@@ -719,6 +725,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--repairs", type=int, default=2, help="repair prompts per answer at most")
     p.add_argument("--rounds", type=int, default=3, help="LLM consultations per run at most")
     p.add_argument("--max-time", type=float, default=60.0, help="planner seconds per plan")
+    p.add_argument(
+        "--sweep-places",
+        type=int,
+        default=SweepBudget().places,
+        help="places one object-loss consultation searches at most (1: one a consultation)",
+    )
     p.add_argument("--suite", default=str(SUITE_DIR), help="folder of task files")
     p.add_argument("--tasks", nargs="+", help="only these tasks (file stems)")
     p.add_argument("--record", help="record the LLM's answers into this cassette folder")
@@ -754,6 +766,7 @@ def config_from_args(args: argparse.Namespace) -> PromptingConfig:
         decoding=args.decoding,
         repairs=args.repairs,
         max_rounds=args.rounds,
+        sweep_places=getattr(args, "sweep_places", SweepBudget().places),
         max_time=args.max_time,
         suite=Path(args.suite),
         tasks=tuple(args.tasks) if args.tasks else None,

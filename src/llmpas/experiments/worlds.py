@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import importlib
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -41,6 +41,8 @@ ORACLES = MappingProxyType(
     }
 )
 ORACLE = "oracle"
+# ``llmpas robot KIND ARGS``: the command of a world that serves a simulated robot, run(argv) -> int
+ROBOTS = MappingProxyType({"pybullet": "llmpas.worlds.ros2.command:run"})
 
 
 def _attr(spec: str, what: str) -> Any:
@@ -80,6 +82,14 @@ def load_world(spec: str) -> World:
             f"world {spec!r} does not implement the World protocol (llmpas.worlds.api)"
         )
     return world
+
+
+def robot_command(kind: str) -> Callable[[Sequence[str]], int]:
+    """The command of a registered simulated robot (``llmpas robot KIND``)."""
+    if kind not in ROBOTS:
+        raise UsageError(f"robot {kind!r}: known robots: {', '.join(sorted(ROBOTS))}")
+    command: Callable[[Sequence[str]], int] = _attr(ROBOTS[kind], "robot")
+    return command
 
 
 def world_of(scenario: str, worlds: tuple[str, ...] = tuple(WORLDS)) -> str:
@@ -160,11 +170,13 @@ def run_loop(
 __all__ = [
     "ORACLE",
     "ORACLES",
+    "ROBOTS",
     "WORLDS",
     "LoopConfig",
     "llm_for",
     "load_world",
     "oracle_for",
+    "robot_command",
     "run_loop",
     "world_of",
 ]

@@ -258,6 +258,7 @@ def _hero(run: RunRecord, images: Images) -> Markup:
     left = [
         tag("h1", run.scenario, " ", tag("span", title, class_=f"badge b-{slug(outcome)}")),
         tag("p", run.message or " ", class_="message"),
+        *_scenario_line(run),
         dl,
         tag("h3", "time"),
         _timing_bar(_timings(run)),
@@ -283,6 +284,12 @@ def _hero(run: RunRecord, images: Images) -> Markup:
         class_="card hero",
         id="outcome",
     )
+
+
+def _scenario_line(run: RunRecord) -> list[Markup]:
+    """What happens in the scenario (its description: where a moved object went), if known."""
+    text = get_str(run.about, "description")
+    return [tag("p", tag("b", "scenario: "), text, class_="small")] if text else []
 
 
 def _story(run: RunRecord) -> Markup:

@@ -16,6 +16,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
+from llmpas.errors import RobotLostError
 from llmpas.language.logic import Formula
 from llmpas.language.problem import parse_formula
 from llmpas.language.semantics import Semantics
@@ -270,6 +271,9 @@ def close_loop(
         raise
     except KeyboardInterrupt:
         loop.record(loop.end(False, "interrupted", LoopStatus.INTERRUPTED, "KeyboardInterrupt"))
+        raise
+    except RobotLostError as err:  # not an anomaly: no LLM is asked about it
+        loop.record(loop.end(False, f"the robot is gone: {err}", LoopStatus.ROBOT_LOST, str(err)))
         raise
     except Exception as err:
         error = f"{type(err).__name__}: {err}"

@@ -88,6 +88,7 @@ class LoopStatus(Enum):
     DEADLINE = "deadline"
     LLM_ERROR = "llm-error"
     CRASHED = "crashed"
+    ROBOT_LOST = "robot-lost"  # the robot went away mid-run (llmpas.errors.RobotLostError)
     INTERRUPTED = "interrupted"
     RUNNING = "running"
 

@@ -127,13 +127,14 @@ class SearchMemory:
 
     def history(self) -> list[str]:
         """The prompt's lines on the searches: where each object was not found, and (with the
-        assist) where it was not searched yet."""
+        assist) where it was not searched yet, while it is still lost (once a look saw it,
+        the belief says where it is)."""
         lines = []
         for obj, regions in self.searching().items():
             if not regions:
                 continue
             lines.append(f"- {obj} was not found on {', '.join(sorted(regions))}")
-            if self.list_unsearched:
+            if self.list_unsearched and self.model.lost(obj):
                 lines.append(
                     f"- places not searched yet for {obj}: {', '.join(self.left(regions))}"
                 )

@@ -134,11 +134,12 @@ def test_every_node_keeps_discovery_on_localhost_in_its_own_domain(tmp_path: Pat
     assert (tmp_path / "run" / "ros-log").is_dir()  # the run's ROS logs, in the run folder
 
 
-def test_killed_robot_node_is_a_failure_and_loop_json_keeps_every_round(
+def test_killed_robot_node_ends_the_run_naming_the_server_and_loop_json_keeps_every_round(
     tmp_path: Path, start_robot
 ) -> None:
-    """SIGKILL the robot node in mid-action: the skill fails, the loop goes on to an anomaly
-    or an error, and loop.json keeps every round. Every process's environment keeps
+    """SIGKILL the robot node in mid-action: a dead robot is an error, not an anomaly. The run
+    ends with one line naming the vanished server and the domain (exit 1), the LLM is not asked
+    about it, and loop.json keeps every round run before. Every process's environment keeps
     discovery on localhost, its own domain and its log folder under the test's folder."""
     domain = random_domain()
     robot = start_robot(domain, "--stall", "grasp")
@@ -164,19 +165,25 @@ def test_killed_robot_node_is_a_failure_and_loop_json_keeps_every_round(
             assert env["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST"
             assert env["ROS_DOMAIN_ID"] == str(domain)
             assert Path(env["ROS_LOG_DIR"]).is_relative_to(log)
+        running = json.loads((tmp_path / "run" / "loop.json").read_text())
         os.kill(robot.proc.pid, signal.SIGKILL)
         robot.proc.wait(10)
         _, err = run.communicate(timeout=900)
     finally:
         if run.poll() is None:
             run.kill()
-    assert run.returncode == 1, err[-2000:]  # ran, task not done; no traceback
+    assert run.returncode == 1, err[-2000:]
     assert "Traceback" not in err
+    lines = [line for line in err.splitlines() if line.startswith("error:")]
+    assert len(lines) == 1, err[-2000:]
+    assert "/llmpas/skill" in lines[0] and "vanished" in lines[0], lines[0]
+    assert f"ROS_DOMAIN_ID={domain}" in lines[0]
     loop = json.loads((tmp_path / "run" / "loop.json").read_text())
-    assert len(loop["rounds"]) >= 2
+    assert loop["status"] == "robot-lost" and "/llmpas/skill" in loop["error"]
+    # every round run before the kill is kept, and no LLM round came after it
+    assert len(loop["rounds"]) >= len(running["rounds"]) >= 1
     assert loop["rounds"][0]["status"] == "anomaly"
-    timeline = (tmp_path / "run" / "loop.md").read_text()
-    assert "gone" in timeline or "vanished" in timeline
+    assert len(loop["rounds"]) == len(running["rounds"])
     # a fresh run right after the kill is not disturbed by what it left (/dev/shm/fastdds_*)
     fresh = llmpas(
         [

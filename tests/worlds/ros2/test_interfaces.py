@@ -16,6 +16,7 @@ from tests.worlds.ros2.conftest import REPO, ros_environ
 CLIENT = """
 import json, sys
 from pathlib import Path
+from llmpas.execution.world import finish
 from llmpas.worlds.pybullet.run import resolve
 from llmpas.worlds.pybullet.scene import Scene, open_client
 from llmpas.worlds.pybullet.values import BaseConf
@@ -27,11 +28,11 @@ out = {}
 with ros_context(from_environment(Path(sys.argv[1]))) as context, open_client(False) as c:
     robot = RosRobot(context, Scene(c, resolve("object-loss").scene), Timeouts(discover=60))
     robot.wait_for_servers()
-    home = robot.move_arm("home")
+    home = finish(robot.move_arm("home"))  # a handle: polled to its end
     out["home"] = [home.ok, home.message]
     out["joints"] = list(robot.scene.arm_conf())
     x, y, t = robot.believed
-    drive = robot.move_base(BaseConf(x + 0.3, y, t))
+    drive = finish(robot.move_base(BaseConf(x + 0.3, y, t)))
     out["drive"] = [drive.ok, drive.message, list(robot.believed)]
     goal = robot.types["arm_controller/follow_joint_trajectory"].Goal()
     goal.trajectory.joint_names = ["elbow"]

@@ -13,7 +13,13 @@ from typing import Any
 from llmpas.experiments.effective import as_search, lost_object
 from llmpas.experiments.oracles.household import oracle as household_oracle
 from llmpas.experiments.replan import Replan
-from llmpas.experiments.suite.judge import first_anomaly, judge, resolution_length, run_traced
+from llmpas.experiments.suite.judge import (
+    first_anomaly,
+    judge,
+    resolution_length,
+    run_traced,
+    unknown_start,
+)
 from llmpas.experiments.suite.tasks import (
     ANOMALY_KINDS,
     UNMODELLED_CAUSES,
@@ -107,7 +113,8 @@ def _oracle_run(task: SuiteTask, config: LoopConfig) -> OracleRun:
     traced = run_traced(task, household_oracle, config)
     result, world = traced.result, traced.world
     first_round = result.rounds[0] if result.rounds else None
-    if first_round is None or first_round.plan.plan is None:
+    start = unknown_start(result, task)  # the object's whereabouts unknown: the loop searches
+    if first_round is None or (first_round.plan.plan is None and start is None):
         why = first_round.plan.message if first_round else "no round ran"
         if first_round is not None and first_round.plan.status in NO_VERDICT:
             message = _no_verdict(first_round.plan.status, "the task from the believed state")
@@ -130,7 +137,7 @@ def _oracle_run(task: SuiteTask, config: LoopConfig) -> OracleRun:
             )
         elif not any(x.ok for x in logged):
             issues.append(Issue(src, f"events[{i}]", f"never applies: {logged[0].message}"))
-    first = first_anomaly(result)
+    first = first_anomaly(result, task)
     if first is None:
         ep = result.rounds[0].episode
         status = ep.status.value if ep is not None else "no episode"
@@ -164,7 +171,7 @@ def _oracle_run(task: SuiteTask, config: LoopConfig) -> OracleRun:
         )
         issues.append(Issue(src, "judge.success", f"{verdict}: {why}"))
         return OracleRun(src, tuple(issues), None, seed)
-    return OracleRun(src, tuple(issues), resolution_length(result), seed)
+    return OracleRun(src, tuple(issues), resolution_length(result, task), seed)
 
 
 NO_VERDICT = (PlanStatus.TIMEOUT, PlanStatus.LIMIT, PlanStatus.CRASHED, PlanStatus.ERROR)
@@ -261,7 +268,7 @@ def effective_issues(
 
         traced = run_traced(task, factory, probe)
         result = traced.result
-        first = first_anomaly(result)
+        first = first_anomaly(result, task)
         proposals = [r.proposal for r in result.rounds if r.proposal is not None]
         if first is None or not proposals:
             continue  # no anomaly: the oracle run reports it
@@ -331,7 +338,8 @@ def optimal_resolution(
     result = close_loop(session, household_oracle(inner), settings)
     if not result.success or not holds_in_truth(task.success, inner.sim.truth):
         return None
-    return resolution_length(result) if first_anomaly(result) is not None else None
+    found = first_anomaly(result, task) is not None
+    return resolution_length(result, task) if found else None
 
 
 class _Always:

@@ -15,9 +15,11 @@ from llmpas.experiments.effective import (
     is_effective,
     lost_object,
 )
+from llmpas.experiments.replan import task_literals
 from llmpas.experiments.suite.tasks import Category, SuiteTask
 from llmpas.experiments.suite.truth import holds_in_truth
 from llmpas.experiments.worlds import LoopConfig
+from llmpas.language.logic import Atom, Not
 from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal
 from llmpas.reasoning.llm import LLM
 from llmpas.reasoning.methods import Proposal, Situation, answer_reader
@@ -25,6 +27,7 @@ from llmpas.system import LLMFor, LoopResult, run
 from llmpas.worlds.household.plugin import WORLD, HouseholdSession, household_for
 from llmpas.worlds.household.reasoning import PROGRAM_CALLS, vocabulary
 from llmpas.worlds.household.sim import HouseholdWorld
+from llmpas.worlds.kitchen.belief import DETECTION
 
 log = logging.getLogger(__name__)
 
@@ -112,16 +115,56 @@ def run_traced(task: SuiteTask, llm: LLM | LLMFor, config: LoopConfig) -> Traced
     return Traced(result, worlds[0])
 
 
-def first_anomaly(result: LoopResult) -> tuple[int, AnomalyReport] | None:
+def first_anomaly(
+    result: LoopResult, task: SuiteTask | None = None
+) -> tuple[int, AnomalyReport] | None:
+    """The first anomaly of the run and its round: the first episode's anomaly or, for a
+    ``task`` whose object's whereabouts are unknown at the start, the loop's question where to
+    look (:func:`unknown_start`)."""
+    start = unknown_start(result, task) if task is not None else None
+    if start is not None:
+        return 0, start
     for i, rnd in enumerate(result.rounds):
         if rnd.episode is not None and rnd.episode.anomaly is not None:
             return i, rnd.episode.anomaly
     return None
 
 
-def resolution_length(result: LoopResult) -> int:
+def unknown_start(result: LoopResult, task: SuiteTask) -> AnomalyReport | None:
+    """A task that names an object the robot knows of but believes nowhere cannot be planned
+    before the object is found: the loop's first round has no plan and asks where to look (a
+    proposal). That question is the run's first anomaly: a failed detection of the object,
+    nothing looked at yet (as the loop reports it). None for any other run."""
+    first = result.rounds[0] if result.rounds else None
+    if first is None or first.plan.plan is not None or first.proposal is None:
+        return None
+    believed = task.scenario.belief.places()
+    literals = task_literals(task.scenario.goal)
+    atoms = [lit.arg if isinstance(lit, Not) else lit for lit in literals]
+    named = {o for a in atoms if isinstance(a, Atom) for o in a.args}
+    lost = sorted(o for o in named if o in believed and believed[o] is None)
+    if not lost:
+        return None
+    return AnomalyReport(
+        action="plan",
+        args=(lost[0],),
+        steps=(),
+        subtree="plan",
+        sub_action="locate",
+        constraint=Atom("on", (lost[0], "?")),
+        constraint_name=DETECTION,
+        reason=f"where {lost[0]} is, is unknown: the task cannot be planned before it is found",
+        explored={},
+        attempts=0,
+        failures={},
+        observations=(),
+        belief=(),
+    )
+
+
+def resolution_length(result: LoopResult, task: SuiteTask | None = None) -> int:
     """Plan actions completed after the first anomaly (0 when there was none)."""
-    first = first_anomaly(result)
+    first = first_anomaly(result, task)
     if first is None:
         return 0
     return sum(
@@ -152,7 +195,7 @@ def judge(
     if keep is not None:
         keep(result)
     holds = holds_in_truth(task.success, traced.world.truth)
-    first = first_anomaly(result)
+    first = first_anomaly(result, task)
     if first is None:
         verdict = Verdict.NO_ANOMALY
     elif not result.believed:  # the loop's own verdict (``success`` is the truth's)
@@ -181,7 +224,7 @@ def judge(
         category=task.category,
         verdict=verdict,
         completed=bool(result.believed),
-        resolution_length=resolution_length(result),
+        resolution_length=resolution_length(result, task),
         anomaly=str(first[1].constraint) if first else "",
         rounds=len(result.rounds),
         proposals=len(proposals),

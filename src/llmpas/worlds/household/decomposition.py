@@ -23,7 +23,7 @@ from llmpas.execution.context import Belief, Context
 from llmpas.execution.csubbt import Constraint, SubAction, SubtreeSpec, Values
 from llmpas.execution.plan_builder import Recipe, failing_literal
 from llmpas.execution.space import Dimension
-from llmpas.execution.world import Observation, SkillResult
+from llmpas.execution.world import Observation, Outcome, SkillResult, finish
 from llmpas.language.logic import Atom, Not
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics
@@ -120,6 +120,10 @@ class Builder(KitchenBuilder):
     def otherwise(self, step: PlanStep) -> Recipe:
         return self.process(step)
 
+    def same_place(self, belief: Belief, region: str, place: str) -> bool:
+        """The same piece of furniture (a look covers all of a table top)."""
+        return furniture_of(self.house, region) == furniture_of(self.house, place)
+
     def scan_inside(self, step: PlanStep) -> Recipe:
         return self.scan(step)
 
@@ -149,7 +153,7 @@ class Builder(KitchenBuilder):
             waypoints = motion.waypoints[1:] if isinstance(motion, Motion) else (target,)
             result = OK
             for wp in waypoints:  # follow the deferred drive, way point by way point
-                result = ctx.robot.move_base(wp)
+                result = finish(ctx.robot.move_base(wp))
                 if not result.ok:
                     break
             return result
@@ -170,7 +174,7 @@ class Builder(KitchenBuilder):
         return None if out is not None else f"no collision-free drive to {target}"
 
     def _arm(self, name: str, where: Callable[[Values], Placement], phase: str) -> SubAction:
-        def run(v: Values, ctx: Context) -> SkillResult:
+        def run(v: Values, ctx: Context) -> Outcome:
             p = where(v)
             region = self.house.layout.regions.get(p.region)
             z = region.height if region is not None else 0.8
@@ -227,8 +231,10 @@ class Builder(KitchenBuilder):
         def detected(v: Values, ctx: Context) -> str | None:
             d = v["observed"].find(obj)
             where = getattr(d.pose, "region", "") if d is not None else ""
-            if d is None or furniture_of(self.house, where) != furniture:
+            if d is None:
                 return f"{obj} not seen when looking at {v['view']}"
+            if furniture_of(self.house, where) != furniture:
+                return f"{obj} seen in {where}, not on {furniture}"
             seen_at.append(d.pose)
             ctx.perceive("detected", d.pose)
             return None
@@ -282,7 +288,7 @@ class Builder(KitchenBuilder):
         mistaken: dict[str, str] = {}
 
         def release(v: Values, c: Context) -> SkillResult:
-            result = c.robot.release(obj, v["spot"])
+            result = finish(c.robot.release(obj, v["spot"]))
             if not result.ok and result.data.get("reason") == "not_held":
                 held = c.robot.holding()
                 if held is not None and held != obj and held in self.house.objects:
@@ -444,7 +450,7 @@ class Builder(KitchenBuilder):
         return SkillResult.failure(f"no free spot for the {cover} on {furniture}")
 
     def _put_down(self, cover: str, spot: Placement, ctx: Context) -> SkillResult:
-        result = ctx.robot.release(cover, spot)
+        result = finish(ctx.robot.release(cover, spot))
         if result.ok:
             for a in ctx.belief.matching("atpose", cover):
                 ctx.belief.values[a.args[1]] = spot  # the cover now stands beside
@@ -456,7 +462,7 @@ class Builder(KitchenBuilder):
         revealed: dict[str, Atom] = {}
 
         def run(v: Values, c: Context) -> SkillResult:
-            result = c.robot.open(region) if opening else c.robot.close(region)
+            result = finish(c.robot.open(region) if opening else c.robot.close(region))
             reason = result.data.get("reason")
             if result.ok or reason not in ("jammed", "obstructed"):
                 return result
@@ -488,7 +494,7 @@ class Builder(KitchenBuilder):
         revealed: dict[str, Atom] = {}
 
         def run(v: Values, c: Context) -> SkillResult:
-            result = c.robot.process(obj, region, step.action)
+            result = finish(c.robot.process(obj, region, step.action))
             prop = result.data.get("reason")
             if not result.ok and prop in PROPERTIES:  # e.g. it will not cool: it is dirty
                 revealed["fact"] = Atom(str(prop), (obj,))

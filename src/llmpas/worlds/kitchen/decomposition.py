@@ -18,7 +18,7 @@ from llmpas.execution.space import Dimension
 from llmpas.execution.world import SkillResult
 from llmpas.language.logic import Atom
 from llmpas.planning.result import PlanStep
-from llmpas.worlds.kitchen.belief import DETECTION, rests_at
+from llmpas.worlds.kitchen.belief import DETECTION, pose_of, rests_at
 from llmpas.worlds.kitchen.values import BaseConf, Grasp
 
 OK = SkillResult.success()
@@ -94,8 +94,19 @@ class KitchenBuilder(PlanBuilder):
     def max_samples(self) -> int:
         return self.exploration.max_samples
 
-    def forget_object(self, belief: Belief, obj: str) -> None:
-        rests_at(belief, obj, None)
+    def forget_object(self, belief: Belief, obj: str, place: str | None) -> None:
+        """Forget where ``obj`` rests only when the belief still has it at ``place`` (the
+        same piece of furniture, :meth:`same_place`): a look that saw it elsewhere during the
+        search is kept."""
+        at = pose_of(belief, obj, object)
+        region = getattr(at, "region", None)
+        if place is None or region is None or self.same_place(belief, region, place):
+            rests_at(belief, obj, None)
+
+    def same_place(self, belief: Belief, region: str, place: str) -> bool:
+        """Whether an object believed in ``region`` is at the ``place`` a look failed at
+        (default: the same name; a world with furniture of several regions says more)."""
+        return region == place
 
     def recipe(self, step: PlanStep) -> Recipe:
         """The recipe of a kitchen-domain action."""

@@ -17,7 +17,7 @@ from llmpas.execution.context import Belief, Context
 from llmpas.execution.csubbt import Constraint, SubAction, SubtreeSpec, Values
 from llmpas.execution.plan_builder import Recipe
 from llmpas.execution.space import Dimension
-from llmpas.execution.world import Observation, SkillResult
+from llmpas.execution.world import Observation, Outcome, SkillResult
 from llmpas.language.logic import Atom
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics
@@ -118,6 +118,10 @@ class Builder(KitchenBuilder):
             rest = ObjectPose(spot.region, spot.x, spot.y, spot.z - self.exploration.drop)
             ctx.belief.values[step.args[1]] = rest
 
+    def same_place(self, belief: Belief, region: str, place: str) -> bool:
+        """The same table (a bowl: the table it is believed on)."""
+        return table_of(self.config, belief, region) == table_of(self.config, belief, place)
+
     def otherwise(self, step: PlanStep) -> Recipe:
         def run(v: Values, c: Context) -> SkillResult:
             return SkillResult.failure(f"{step.action} is not supported in the PyBullet world")
@@ -142,7 +146,7 @@ class Builder(KitchenBuilder):
             ctx.perceive(f"{name}_path", path)
             return None
 
-        def run(v: Values, ctx: Context) -> SkillResult:
+        def run(v: Values, ctx: Context) -> Outcome:
             here = ctx.robot.base_conf()
             if isinstance(here, BaseConf) and here.distance(v[key]) < 1e-3:
                 return SkillResult.success("already there")
@@ -182,7 +186,7 @@ class Builder(KitchenBuilder):
     def _arm(
         self, name: str, where: Callable[[Values], ObjectPose], phase: str, obj: str
     ) -> SubAction:
-        def run(v: Values, ctx: Context) -> SkillResult:
+        def run(v: Values, ctx: Context) -> Outcome:
             return ctx.robot.move_arm(ArmGoal(where(v), v["grasp"], phase, obj))
 
         reach = Constraint(
@@ -204,8 +208,11 @@ class Builder(KitchenBuilder):
         def detected(v: Values, ctx: Context) -> str | None:
             d = v["observed"].find(obj)
             table = table_of(self.config, ctx.belief, region)
-            if d is None or table_of(self.config, ctx.belief, d.region) != table:
+            if d is None:
                 return f"{obj} not detected on {table}"
+            seen = table_of(self.config, ctx.belief, d.region)
+            if seen != table:
+                return f"{obj} seen on {seen}, not on {table}"
             ctx.perceive("detected", d.pose)
             return None
 

@@ -125,14 +125,16 @@ def scenarios() -> dict[str, PyBulletScenario]:
             PyBulletScenario(
                 "object-loss",
                 "Object loss that needs reasoning: while the robot drives to table1 for the "
-                "cube, someone carries the cube to table3, behind the robot, where no camera "
-                "sees it from table1 or from the bowl's table. The robot still believes it is "
-                "on table1; it could be on table2, table3 or table4. Replanning the task alone "
-                "cannot find it: a search of the right table is what recovers.",
+                "cube, someone carries the cube to table4, behind the robot's start (opposite "
+                "table1), where no look of the pick's search sees it: from its base poses "
+                "facing table1 the mast and wrist cameras see table1, table2 (the bowl) and "
+                "part of table3, never table4. The robot still believes it is on table1; it "
+                "could be on table2, table3 or table4. Replanning the task alone cannot find "
+                "it: a search of the right table is what recovers.",
                 SceneConfig(tables=_four_tables(), objects=_objects()),
                 goal,
                 seed=2,
-                events=(Event("move_base", 1, "cube", "table3", 0.3, 0.2),),
+                events=(Event("move_base", 1, "cube", "table4", 0.3, 0.2),),
                 event_jitter=0.05,
             ),
             PyBulletScenario(

@@ -4,10 +4,12 @@
 :class:`~llmpas.execution.world.Perception` whose calls become goals of the robot's action
 servers (names in :mod:`llmpas.worlds.ros2.node`): the base is Nav2's ``NavigateToPose``, the
 arm's named configuration (home) ros2_control's ``FollowJointTrajectory``, the rest the project's
-``Skill`` and ``Look`` actions. A goal is sent, then polled while the node's executor spins in
-its own thread (feedback and topics keep arriving); a rejected goal, an abort, a timeout or a
-server that disappears is a skill failure with that reason, which the subtree explores like any
-other. Ctrl-C cancels the goal on the robot before it ends the run.
+``Skill`` and ``Look`` actions. A skill sends its goal and returns a :class:`RosGoal`, the
+executor's handle: each tick polls it (the node's executor spins in its own thread, so feedback
+and topics keep arriving) and a preempted skill cancels the goal on the robot. A rejected goal,
+an abort or a timeout is a skill failure with that reason, which the subtree explores like any
+other; a server that vanished (its node killed) is :class:`~llmpas.errors.RobotLostError`,
+which ends the run naming the server and the domain.
 
 After every goal the robot's state (odometry, the held object, the planning scene) is read with
 the ``scene_state`` service; the planning scene is the one the streams reason on.
@@ -21,9 +23,10 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
-from llmpas.execution.world import Observation, SkillResult
+from llmpas.errors import RobotLostError
+from llmpas.execution.world import Observation, Outcome, SkillResult, finish
 from llmpas.worlds.pybullet.scene import Scene
 from llmpas.worlds.pybullet.values import ArmGoal, BaseConf, ObjectPose
 from llmpas.worlds.ros2 import convert
@@ -33,11 +36,117 @@ from llmpas.worlds.ros2.profile import RobotProfile
 log = logging.getLogger(__name__)
 
 
+T = TypeVar("T")
+
 REQUIRED = (NAV, FJT, SKILL, LOOK)  # what the loop calls (the gripper action is optional)
 
 
 class RobotUnavailableError(Exception):
     """An action server or service of the robot did not appear in time (names it)."""
+
+
+class RosGoal:
+    """One action goal as the executor's skill handle: sent when made, then ``poll()`` (never
+    blocks) until it ends, ``cancel()`` asks the server to cancel it.
+
+    The goal ends as a failure when it is not accepted within ``timeouts.accept`` (reason
+    ``lost``), rejected (``rejected``), aborted or cancelled by the server, or runs past
+    ``timeouts.goal`` (it is cancelled: ``timeout``). A server that is gone from the graph for
+    ``timeouts.lost`` seconds raises :class:`~llmpas.errors.RobotLostError`.
+    ``done`` turns the action's result into the success's message."""
+
+    def __init__(
+        self, robot: RosRobot, name: str, goal: Any, done: Callable[[Any], SkillResult]
+    ) -> None:
+        self.robot, self.name, self.done = robot, name, done
+        self.client = robot.clients[name]
+        self.final: SkillResult | None = None
+        self.raw: Any = None  # the action's result, once it came
+        self.accepted: Any = None  # rclpy's ClientGoalHandle
+        self.result_future: Any = None
+        self.gone: float | None = None
+        if not self.client.server_is_ready() and not self.client.wait_for_server(
+            timeout_sec=robot.timeouts.lost
+        ):
+            raise robot.lost_error(name, "is gone")
+        robot.goals += 1
+        robot.on_goal(f"/{name}/goal", "Goal", goal)
+        self.sent = robot.request(
+            lambda: self.client.send_goal_async(
+                goal,
+                feedback_callback=lambda f: robot.on_goal(
+                    f"/{name}/feedback", "Feedback", f.feedback
+                ),
+            )
+        )
+        self.deadline = time.monotonic() + robot.timeouts.accept
+
+    def poll(self) -> SkillResult:
+        if self.final is not None:
+            return self.final
+        now = time.monotonic()
+        if self.accepted is None:
+            if not self.sent.done():
+                if now > self.deadline:
+                    return self._end(
+                        SkillResult.failure(f"/{self.name} did not answer the goal", reason="lost")
+                    )
+                self._check_server(now)
+                return SkillResult.still_running(f"/{self.name}: goal sent")
+            handle = self.sent.result()
+            if not handle.accepted:
+                return self._end(
+                    SkillResult.failure(f"/{self.name} rejected the goal", reason="rejected")
+                )
+            self.accepted, self.result_future = handle, self.robot.request(handle.get_result_async)
+            self.deadline = now + self.robot.timeouts.goal
+        if not self.result_future.done():
+            if now > self.deadline:
+                self._cancel_on_robot()
+                return self._end(SkillResult.failure(f"/{self.name} timed out", reason="timeout"))
+            self._check_server(now)
+            return SkillResult.still_running(f"/{self.name}: goal running")
+        return self._end(self._outcome(self.result_future.result()))
+
+    def cancel(self) -> None:
+        """Cancel the goal on the robot (waits up to 2 s for the server's answer)."""
+        if self.final is not None:
+            return
+        if self.accepted is None and self.robot.wait(self.sent, 2.0):
+            handle = self.sent.result()
+            self.accepted = handle if handle.accepted else None
+        if self.accepted is not None:
+            log.info("cancelling the /%s goal on the robot", self.name)
+            self._cancel_on_robot()
+        self._end(SkillResult.failure(f"/{self.name}: goal cancelled", reason="cancelled"))
+
+    def _cancel_on_robot(self) -> None:
+        self.robot.wait(self.robot.request(self.accepted.cancel_goal_async), 2.0)
+
+    def _check_server(self, now: float) -> None:
+        """RobotLostError when the server has been gone for ``timeouts.lost`` seconds."""
+        if self.client.server_is_ready():
+            self.gone = None
+        elif self.gone is None:
+            self.gone = now
+        elif now - self.gone > self.robot.timeouts.lost:
+            self.final = SkillResult.failure(f"the /{self.name} server vanished", reason="lost")
+            raise self.robot.lost_error(self.name, "vanished during a goal")
+
+    def _outcome(self, wrapped: Any) -> SkillResult:
+        from action_msgs.msg import GoalStatus
+
+        self.raw = wrapped.result
+        self.robot.on_goal(f"/{self.name}/result", "Result", wrapped.result)
+        self.robot.sync()
+        if wrapped.status == GoalStatus.STATUS_SUCCEEDED:
+            return self.done(wrapped.result)
+        what = {GoalStatus.STATUS_ABORTED: "aborted", GoalStatus.STATUS_CANCELED: "canceled"}
+        return _failure(wrapped.result, what.get(wrapped.status, "failed"))
+
+    def _end(self, result: SkillResult) -> SkillResult:
+        self.final = result
+        return result
 
 
 @dataclass(frozen=True)
@@ -89,10 +198,14 @@ class RosRobot:
         self.state_client = self.node.create_client(GetSceneState, self.profile.actions.state)
         self.executor = SingleThreadedExecutor(context=context)
         self.executor.add_node(self.node)
+        # rclpy files a request's future only after sending it: a reply the spinner takes in
+        # between is dropped ("Ignoring unexpected goal response"), the goal never answers. So
+        # requests are sent (request()) and replies taken (_spin) under one lock.
+        self.lock = threading.Lock()
+        self.stopping = threading.Event()
         self.spinner = threading.Thread(target=self._spin, daemon=True, name="ros2-spin")
         self.spinner.start()
         self.believed: tuple[float, float, float] = scene.config.base
-        self.lost: set[str] = set()
         self.log: list[str] = []
         self.frames: list[Any] = []  # the run folder's media: none (the robot keeps its own)
         self.images: list[Any] = []
@@ -101,14 +214,23 @@ class RosRobot:
 
     def _spin(self) -> None:
         try:
-            self.executor.spin()
+            while not self.stopping.is_set():
+                with self.lock:
+                    self.executor.spin_once(timeout_sec=0.005)
+                time.sleep(0.0005)  # a sender waiting for the lock gets it
         except Exception:  # the context was shut down under it
             log.debug("ROS 2 spinner stopped", exc_info=True)
 
+    def request(self, send: Callable[[], T]) -> T:
+        """``send()`` (a goal, result, cancel or service request) while no reply is taken."""
+        with self.lock:
+            return send()
+
     def shutdown(self) -> None:
         """Stop spinning; the node goes with its context (never blocks on a busy spinner)."""
-        self.executor.shutdown(timeout_sec=2.0)
+        self.stopping.set()
         self.spinner.join(timeout=2.0)
+        self.executor.shutdown(timeout_sec=2.0)
         if not self.spinner.is_alive():
             self.node.destroy_node()
 
@@ -138,14 +260,15 @@ class RosRobot:
 
         if not self.state_client.service_is_ready():
             return False
-        future = self.state_client.call_async(GetSceneState.Request())
-        if not self._wait(future, self.timeouts.accept):
+        future = self.request(lambda: self.state_client.call_async(GetSceneState.Request()))
+        if not self.wait(future, self.timeouts.accept):
             self.state_client.remove_pending_request(future)
             return False
         self.believed = convert.apply_state(self.scene, future.result().state)
         return True
 
-    def _wait(self, future: Any, seconds: float) -> bool:
+    def wait(self, future: Any, seconds: float) -> bool:
+        """Whether ``future`` is done within ``seconds`` (the spinner thread completes it)."""
         end = time.monotonic() + seconds
         while not future.done():
             if time.monotonic() > end:
@@ -153,65 +276,28 @@ class RosRobot:
             time.sleep(0.002)
         return True
 
+    def lost_error(self, name: str, what: str) -> RobotLostError:
+        kind = self.types[name]
+        return RobotLostError(
+            f"the robot's ROS 2 action server /{name} ({kind.__module__.split('.')[0]}/"
+            f"{kind.__name__}) {what}; ROS_DOMAIN_ID={self.node.context.get_domain_id()}"
+        )
+
     # ------------------------------------------------------------------ goals
 
+    def send(
+        self, name: str, goal: Any, done: Callable[[Any], SkillResult] | None = None
+    ) -> RosGoal:
+        """Send ``goal`` to ``/name``: its handle (``done``: the success's result, from the
+        action's result; default a plain success)."""
+        return RosGoal(self, name, goal, done or (lambda raw: SkillResult.success()))
+
     def goal(self, name: str, goal: Any) -> tuple[SkillResult | None, Any]:
-        """Send ``goal`` to ``/name`` and wait for its end, polling (the spinner thread takes
-        feedback). (None, result) when it succeeded; (failure, result or None) otherwise."""
-        client = self.clients[name]
-        if self.lost and not client.server_is_ready():  # the robot went away: fail at once
-            self.lost.add(name)
-            return SkillResult.failure(f"the robot's /{name} server is gone", reason="lost"), None
-        if not client.wait_for_server(timeout_sec=self.timeouts.accept):
-            self.lost.add(name)
-            return SkillResult.failure(f"no /{name} action server", reason="lost"), None
-        self.goals += 1
-        self.on_goal(f"/{name}/goal", "Goal", goal)
-        sent = client.send_goal_async(
-            goal,
-            feedback_callback=lambda f: self.on_goal(f"/{name}/feedback", "Feedback", f.feedback),
-        )
-        try:
-            if not self._wait(sent, self.timeouts.accept):
-                self.lost.add(name)
-                return SkillResult.failure(f"/{name} did not answer the goal", reason="lost"), None
-            handle = sent.result()
-            if not handle.accepted:
-                return SkillResult.failure(f"/{name} rejected the goal", reason="rejected"), None
-            return self._result(name, client, handle)
-        except KeyboardInterrupt:
-            if sent.done() and sent.result().accepted:
-                log.warning("cancelling the /%s goal on the robot", name)
-                cancel = sent.result().cancel_goal_async()
-                self._wait(cancel, 2.0)
-            raise
-
-    def _result(self, name: str, client: Any, handle: Any) -> tuple[SkillResult | None, Any]:
-        from action_msgs.msg import GoalStatus
-
-        future = handle.get_result_async()
-        end = time.monotonic() + self.timeouts.goal
-        gone: float | None = None
-        while not future.done():
-            now = time.monotonic()
-            if now > end:
-                self._wait(handle.cancel_goal_async(), 2.0)
-                return SkillResult.failure(f"/{name} timed out", reason="timeout"), None
-            if client.server_is_ready():
-                gone = None
-            elif gone is None:
-                gone = now
-            elif now - gone > self.timeouts.lost:
-                self.lost.add(name)
-                return SkillResult.failure(f"the /{name} server vanished", reason="lost"), None
-            time.sleep(0.002)
-        wrapped = future.result()
-        self.on_goal(f"/{name}/result", "Result", wrapped.result)
-        self.sync()
-        if wrapped.status == GoalStatus.STATUS_SUCCEEDED:
-            return None, wrapped.result
-        what = {GoalStatus.STATUS_ABORTED: "aborted", GoalStatus.STATUS_CANCELED: "canceled"}
-        return _failure(wrapped.result, what.get(wrapped.status, "failed")), wrapped.result
+        """Send ``goal`` to ``/name`` and wait for its end (perception, tests): (None, result)
+        when it succeeded; (failure, result or None) otherwise."""
+        handle = self.send(name, goal)
+        outcome = finish(handle)
+        return (None if outcome.ok else outcome), handle.raw
 
     # ------------------------------------------------------------------ Robot
 
@@ -222,22 +308,21 @@ class RosRobot:
     def holding(self) -> str | None:
         return self.scene.held
 
-    def move_base(self, conf: Any) -> SkillResult:
+    def move_base(self, conf: Any) -> Outcome:
         if not isinstance(conf, BaseConf):
             return SkillResult.failure(f"not a base configuration: {conf!r}", reason="bad_value")
         goal = self.types[NAV].Goal()
         goal.pose = convert.pose_stamped(conf.x, conf.y, 0.0, conf.theta)
-        failed, result = self.goal(NAV, goal)
-        return failed or _success(result.error_msg)
+        return self.send(NAV, goal, lambda raw: _success(raw.error_msg))
 
-    def move_arm(self, target: Any) -> SkillResult:
+    def move_arm(self, target: Any) -> Outcome:
         if isinstance(target, str) and target == "home":
             return self._joints(self.profile.arm.home)
         if not isinstance(target, ArmGoal):
             return SkillResult.failure(f"not an arm goal: {target!r}", reason="bad_value")
         return self._skill("move_arm", convert.arm_goal_json(target))
 
-    def _joints(self, q: tuple[float, ...]) -> SkillResult:
+    def _joints(self, q: tuple[float, ...]) -> Outcome:
         from trajectory_msgs.msg import JointTrajectoryPoint
 
         goal = self.types[FJT].Goal()
@@ -247,33 +332,29 @@ class RosRobot:
         point.positions = [float(v) for v in q]
         point.time_from_start.sec = 3
         goal.trajectory.points = [point]
-        failed, result = self.goal(FJT, goal)
-        return failed or _success(result.error_string)
+        return self.send(FJT, goal, lambda raw: _success(raw.error_string))
 
-    def _skill(self, skill: str, args: str) -> SkillResult:
+    def _skill(self, skill: str, args: str) -> Outcome:
         goal = self.types[SKILL].Goal()
         goal.skill, goal.args = skill, args
-        failed, result = self.goal(SKILL, goal)
-        if failed is not None:
-            return failed
-        return SkillResult.success(result.message)
+        return self.send(SKILL, goal, lambda raw: SkillResult.success(raw.message))
 
-    def grasp(self, obj: str, grasp: Any) -> SkillResult:
+    def grasp(self, obj: str, grasp: Any) -> Outcome:
         return self._skill("grasp", json.dumps({"obj": obj, "grasp": grasp.kind}))
 
-    def release(self, obj: str, pose: Any) -> SkillResult:
+    def release(self, obj: str, pose: Any) -> Outcome:
         if not isinstance(pose, ObjectPose):
             return SkillResult.failure(f"not a pose: {pose!r}", reason="bad_value")
         spot = [pose.region, pose.x, pose.y, pose.z]
         return self._skill("release", json.dumps({"obj": obj, "pose": spot}))
 
-    def open(self, container: str) -> SkillResult:
+    def open(self, container: str) -> Outcome:
         return self._skill("open", json.dumps({"container": container}))
 
-    def close(self, container: str) -> SkillResult:
+    def close(self, container: str) -> Outcome:
         return self._skill("close", json.dumps({"container": container}))
 
-    def process(self, obj: str, appliance: str, how: str) -> SkillResult:
+    def process(self, obj: str, appliance: str, how: str) -> Outcome:
         return self._skill("process", json.dumps({"obj": obj, "appliance": appliance, "how": how}))
 
     def snapshot(self, label: str) -> None:
@@ -332,4 +413,4 @@ def _parse(text: str) -> tuple[str, str, bool]:
     return text, "", False
 
 
-__all__ = ["ACTIONS", "REQUIRED", "RobotUnavailableError", "RosRobot", "Timeouts"]
+__all__ = ["ACTIONS", "REQUIRED", "RobotUnavailableError", "RosGoal", "RosRobot", "Timeouts"]

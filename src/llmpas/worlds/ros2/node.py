@@ -25,14 +25,11 @@ or hold it until it is cancelled.
 
 from __future__ import annotations
 
-import argparse
 import logging
-import sys
-import tempfile
 import threading
 import time
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -44,9 +41,8 @@ from llmpas.worlds.pybullet.scene import FINGER_OPEN, Scene, open_client
 from llmpas.worlds.pybullet.values import ArmGoal, Grasp
 from llmpas.worlds.pybullet.world import PyBulletWorld
 from llmpas.worlds.ros2 import convert, standard
-from llmpas.worlds.ros2.env import RosEnv, from_environment, missing_rmw, reclaim_shared_memory
-from llmpas.worlds.ros2.profile import LATCHED, ProfileError, RobotProfile
-from llmpas.worlds.ros2.profile import load as load_profile
+from llmpas.worlds.ros2.env import RosEnv, reclaim_shared_memory
+from llmpas.worlds.ros2.profile import LATCHED, RobotProfile
 
 log = logging.getLogger(__name__)
 
@@ -545,54 +541,9 @@ def serve(
             context.try_shutdown()
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="llmpas robot pybullet",
-        description="serve the PyBullet Husky + Panda as a ROS 2 robot (docs/ros.md)",
-    )
-    parser.add_argument("scenario", help="a PyBullet scenario (object-loss, nominal, ...)")
-    parser.add_argument("--seed", type=int, help="the scenario's seed (default: its own)")
-    parser.add_argument("--domain", type=int, help="ROS_DOMAIN_ID (default: $ROS_DOMAIN_ID or 57)")
-    parser.add_argument("--log-dir", help="ROS_LOG_DIR (default: a temporary folder)")
-    parser.add_argument("--ready", help="write this file once every server is up")
-    parser.add_argument("--robot-profile", help="the robot's profile (YAML file or shipped name)")
-    parser.add_argument(
-        "--standard",
-        action="store_true",
-        help="serve standard interfaces only (Nav2, "
-        "ros2_control, TF, joint_states, robot_description, vision_msgs)",
-    )
-    for fault in ("reject", "abort", "stall"):
-        parser.add_argument(f"--{fault}", action="append", default=[], metavar="KIND")
-    args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.INFO, format="%(asctime)s robot: %(message)s", force=True)
-    log_dir = Path(args.log_dir or tempfile.mkdtemp(prefix="llmpas-robot-"))
-    try:
-        profile = load_profile(args.robot_profile or "pybullet")
-        if args.standard and not profile.standard:
-            profile = (
-                load_profile("pybullet-standard")
-                if not args.robot_profile
-                else replace(profile, interfaces="standard")
-            )
-        env = from_environment(log_dir / "ros", args.domain, profile.rmw)
-        resolve(args.scenario)
-        problem = missing_rmw(env.environ())
-        if problem is not None:
-            raise ValueError(problem)
-    except ProfileError as e:
-        sys.stderr.write(f"error: {e}\n")
-        return 2
-    except (KeyError, ValueError) as e:
-        sys.stderr.write(f"error: {e.args[0] if e.args else e}\n")
-        return 2
-    faults = Faults(frozenset(args.reject), frozenset(args.abort), frozenset(args.stall))
-    ready = Path(args.ready) if args.ready else None
-    serve(args.scenario, args.seed, env, faults, ready, profile)
-    return 0
+if __name__ == "__main__":  # the robot's process (session.robot_process): one parser, command's
+    from llmpas.worlds.ros2.command import main
 
-
-if __name__ == "__main__":
     raise SystemExit(main())
 
 
@@ -606,6 +557,5 @@ __all__ = [
     "STATE",
     "Faults",
     "RobotNode",
-    "main",
     "serve",
 ]

@@ -9,9 +9,11 @@ their own frames, resolved through TF at their stamps). The planning scene is ll
 furniture, the robot's kinematics checked against ``robot_description`` (joint names and
 limits), kept up to date from TF, ``joint_states``, the detections and the gripper's results.
 
-Every skill is a :class:`Steps`: a list of steps, each of which sends one goal (or ends the
-skill); ``poll()`` advances it without blocking and ``cancel()`` cancels the goal under way,
-so that the executor can tick while it runs. :meth:`StandardRobot.run` polls one to its end.
+Every skill returns a :class:`Steps`, the executor's handle: a list of steps, each of which
+sends one goal (or ends the skill); ``poll()`` advances it without blocking (RUNNING until it
+ends) and ``cancel()`` cancels the goal under way, so that the tree ticks while the robot moves.
+Perception polls its steps to their end (:meth:`StandardRobot.run`). A server that vanishes is
+:class:`~llmpas.errors.RobotLostError` (the run ends naming it and the domain).
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from llmpas.errors import RobotLostError
 from llmpas.execution.world import Detection, Observation, SkillResult
 from llmpas.worlds.pybullet.camera import RIM_MARGIN
 from llmpas.worlds.pybullet.scene import TABLE_TOP, Scene
@@ -70,12 +73,12 @@ class Steps:
         self.final: SkillResult | None = None
         self.current: _Goal | None = None
 
-    def poll(self) -> SkillResult | None:
+    def poll(self) -> SkillResult:
         while self.final is None:
             if self.current is not None:
                 raw = self.current.poll()
                 if raw is None:
-                    return None
+                    return SkillResult.still_running(f"{self.current.name}: goal running")
                 goal, self.current = self.current, None
                 if isinstance(raw, SkillResult):
                     self.final = raw
@@ -95,9 +98,12 @@ class Steps:
         return self.final
 
     def cancel(self) -> None:
-        if self.current is not None and self.final is None:
+        """Cancel the goal under way on the robot; the skill ends (cancelled)."""
+        if self.final is not None:
+            return
+        if self.current is not None:
             self.current.cancel()
-            self.final = SkillResult.failure("cancelled", reason="cancelled")
+        self.final = SkillResult.failure("cancelled", reason="cancelled")
 
 
 class _Goal:
@@ -115,8 +121,7 @@ class _Goal:
         if not self.client.server_is_ready() and not self.client.wait_for_server(
             timeout_sec=robot.timeouts.lost
         ):
-            self.failed = SkillResult.failure(f"no {self.name} action server", reason="lost")
-            return
+            raise robot.lost_error(send.action, "is gone")
         robot.goals += 1
         robot.moved(send.action)
         robot.on_goal(f"{self.name}/goal", "Goal", send.goal)
@@ -154,7 +159,7 @@ class _Goal:
             elif self.gone is None:
                 self.gone = now
             elif now - self.gone > self.robot.timeouts.lost:
-                return SkillResult.failure(f"the {self.name} server vanished", reason="lost")
+                raise self.robot.lost_error(self.send.action, "vanished during a goal")
             return None
         wrapped = self.result.result()
         self.robot.on_goal(f"{self.name}/result", "Result", wrapped.result)
@@ -457,12 +462,20 @@ class StandardRobot:
 
     # ------------------------------------------------------------------ running skills
 
+    def lost_error(self, action: str, what: str) -> RobotLostError:
+        kind = self.types[action]
+        return RobotLostError(
+            f"the robot's ROS 2 action server {self.names[action]} "
+            f"({kind.__module__.split('.')[0]}/{kind.__name__}) {what}; "
+            f"ROS_DOMAIN_ID={self.node.context.get_domain_id()}"
+        )
+
     def run(self, steps: Steps) -> SkillResult:
-        """Poll a skill to its end (Ctrl-C cancels its goal on the robot first)."""
+        """Poll steps to their end (perception; Ctrl-C cancels the goal on the robot first)."""
         try:
             while True:
                 result = steps.poll()
-                if result is not None:
+                if not result.running:
                     return result
                 time.sleep(0.002)
         except KeyboardInterrupt:
@@ -523,21 +536,21 @@ class StandardRobot:
     def holding(self) -> str | None:
         return self.scene.held
 
-    def move_base(self, conf: Any) -> SkillResult:
+    def move_base(self, conf: Any) -> Steps | SkillResult:
         if not isinstance(conf, BaseConf):
             return SkillResult.failure(f"not a base configuration: {conf!r}", reason="bad_value")
         goal = self.types[NAV].Goal()
         goal.pose = convert.pose_stamped(conf.x, conf.y, 0.0, conf.theta)
         goal.pose.header.frame_id = self.profile.frames.map
         done = SkillResult.success(f"drove to {conf}")
-        return self.run(Steps(self, [lambda: Send(NAV, goal)], done))
+        return Steps(self, [lambda: Send(NAV, goal)], done)
 
     def home(self) -> Step:
         return self._plan(self.skills.home, SkillResult.failure("cannot fold"))
 
-    def move_arm(self, target: Any) -> SkillResult:
+    def move_arm(self, target: Any) -> Steps | SkillResult:
         if isinstance(target, str) and target == "home":
-            return self.run(Steps(self, [self.home()], SkillResult.success("arm folded")))
+            return Steps(self, [self.home()], SkillResult.success("arm folded"))
         if not isinstance(target, ArmGoal):
             return SkillResult.failure(f"not an arm goal: {target!r}", reason="bad_value")
         pose, kind = target.pose, target.grasp.kind
@@ -556,7 +569,7 @@ class StandardRobot:
 
         failed = SkillResult.failure(f"{what} to {target.pose} failed", reason="unreachable")
         done = SkillResult.success(f"{what} {target.pose}")
-        return self.run(Steps(self, [self._plan(plan, failed)], done))
+        return Steps(self, [self._plan(plan, failed)], done)
 
     def _height(self, target: ArmGoal) -> float:
         name = self.scene.held or target.obj
@@ -573,57 +586,43 @@ class StandardRobot:
                 out.append(o.name)
         return out
 
-    def grasp(self, obj: str, grasp: Any) -> SkillResult:
+    def grasp(self, obj: str, grasp: Any) -> Steps | SkillResult:
+        """Close the hand (held when the fingers stall on something), lift, fold; a miss opens
+        the hand again, lifts and folds, and fails (reason ``nothing``)."""
         if self.scene.held is not None:
             return SkillResult.failure("the hand is full", reason="hand_full")
         arm = self.profile.arm
-        held: list[bool] = []
+        lift = self._plan(self.skills.lift, SkillResult.failure("cannot lift"))
+        steps = Steps(self, [], SkillResult.success(f"holding {obj}"))
 
         def closed(raw: Any) -> None:
-            held.append(bool(raw.stalled))
             if raw.stalled:  # the fingers stopped on something: what the hand is at
                 ee, _ = self.scene.ee_pose()
                 self.scene.set_pose(obj, (float(ee[0]), float(ee[1]), float(ee[2])))
                 self.scene.attach(obj)
-            return None
+                steps.steps[:0] = [lift, self.home()]
+            else:
+                opened = self._gripper(arm.gripper_open, 0.0, lambda raw: None)
+                steps.steps[:0] = [opened, lift, self.home()]
+                steps.done = SkillResult.failure(f"missed {obj}", reason="nothing")
 
-        def missed() -> SkillResult | None:
-            return None if held and held[0] else SkillResult.failure("", reason="missed")
+        steps.steps = [self._gripper(0.0, arm.max_effort, closed)]
+        return steps
 
-        steps = Steps(
-            self,
-            [self._gripper(0.0, arm.max_effort, closed), missed,
-             self._plan(self.skills.lift, SkillResult.failure("cannot lift")), self.home()],
-            SkillResult.success(f"holding {obj}"),
-        )  # fmt: skip
-        result = self.run(steps)
-        if result.ok or result.data.get("reason") != "missed":
-            return result
-        recover = Steps(
-            self,
-            [self._gripper(arm.gripper_open, 0.0, lambda raw: None),
-             self._plan(self.skills.lift, SkillResult.failure("cannot lift")), self.home()],
-            SkillResult.failure(f"missed {obj}", reason="nothing"),
-        )  # fmt: skip
-        out = self.run(recover)
-        return out if not out.ok else SkillResult.failure(f"missed {obj}", reason="nothing")
-
-    def release(self, obj: str, pose: Any) -> SkillResult:
+    def release(self, obj: str, pose: Any) -> Steps | SkillResult:
         if self.scene.held != obj:
             return SkillResult.failure(f"not holding {obj}", reason="not_held")
 
         def opened(raw: Any) -> None:
             self.scene.detach()
             self.scene.settle(120)  # the planning scene's object drops where it was let go
-            return None
 
-        steps = Steps(
+        return Steps(
             self,
             [self._gripper(self.profile.arm.gripper_open, 0.0, opened),
              self._plan(self.skills.lift, SkillResult.failure("cannot lift")), self.home()],
             SkillResult.success(f"released {obj}"),
         )  # fmt: skip
-        return self.run(steps)
 
     def open(self, container: str) -> SkillResult:
         return SkillResult.failure(f"{container} cannot be opened", reason="not_openable")
