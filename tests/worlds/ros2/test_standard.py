@@ -71,6 +71,7 @@ from llmpas.worlds.ros2.env import from_environment
 from llmpas.worlds.ros2.profile import load
 from llmpas.worlds.ros2.session import ros_context
 from llmpas.worlds.ros2.standard_robot import StandardRobot
+from llmpas.execution.world import finish
 
 out = {}
 profile = load(sys.argv[2])
@@ -87,11 +88,13 @@ with ros_context(from_environment(Path(sys.argv[1]))) as context, open_client(Fa
     out["look"] = [[d.obj, d.region, d.pose.x, d.pose.y, d.pose.z] for d in look.detections]
     out["viewed"] = list(look.viewed)
     x, y, t = robot.believed
-    drive = robot.move_base(BaseConf(x + 0.3, y, t))
+    handle = robot.move_base(BaseConf(x + 0.3, y, t))  # a handle: the goal runs while polled
+    out["first_poll"] = handle.poll().status.value
+    drive = finish(handle)
     out["drive"] = [drive.ok, drive.message, list(robot.believed)]
-    far = robot.move_base(BaseConf(1.6, 0.0, 0.0))  # inside table1: no path
+    far = finish(robot.move_base(BaseConf(1.6, 0.0, 0.0)))  # inside table1: no path
     out["blocked"] = [far.ok, far.data.get("reason"), far.data.get("error_code")]
-    home = robot.move_arm("home")
+    home = finish(robot.move_arm("home"))
     out["home"] = [home.ok, home.message, list(robot.scene.arm_conf())]
     robot.shutdown()
 print(json.dumps(out))
@@ -168,6 +171,7 @@ def test_a_namespaced_standard_robot_driven_through_a_profile(tmp_path: Path, st
     assert region == cube.table
     assert abs(x - (table.x + cube.dx)) < 0.05 and abs(y - (table.y + cube.dy)) < 0.05
     assert 0.6 < z < 0.7
+    assert out["first_poll"] == "running"
     ok, _, believed = out["drive"]
     assert ok and abs(believed[0] - 0.3) < 1e-6  # TF's map -> base_link after the goal
     assert out["blocked"] == [False, "blocked", 208]  # Nav2's NO_VALID_PATH
