@@ -420,7 +420,10 @@ def _options(args: argparse.Namespace) -> Any:
     from llmpas.worlds.api import RunOptions
 
     return RunOptions(
-        planner=_planner_config(args), seed=args.seed, gui=bool(getattr(args, "gui", False))
+        planner=_planner_config(args),
+        seed=args.seed,
+        gui=bool(getattr(args, "gui", False)),
+        robot_profile=getattr(args, "robot_profile", None),
     )
 
 
@@ -680,6 +683,12 @@ def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     )
     _add_world_option(p)
     p.add_argument("--gui", action="store_true", help="open the simulator window (PyBullet)")
+    p.add_argument(
+        "--robot-profile",
+        metavar="FILE",
+        help="the robot's profile (YAML: names, namespace, QoS, places; a shipped name: "
+        "pybullet, pybullet-standard) for worlds that drive a robot (ros2; docs/ros.md)",
+    )
     p.add_argument("--no-llm", action="store_true", help="plan and execute once, no reasoning")
     add_llm_argument(p, replan=True)
     p.add_argument("--method", default="flp", choices=method_names())

@@ -1,9 +1,12 @@
 """``llmpas bench ros``: what running the loop over ROS 2 costs. The same scenario, LLM and seed
-run in-process (the ``pybullet`` world) and over ROS 2 (the ``ros2`` world: the robot node in a
-process of its own, every skill an action goal, recorded as MCAP), alternately, ``--repeats``
-times each, neither rendering snapshots; the table gives the wall time of each (with the node's
-start and the connection for ROS 2), the loop's execution and planning time, and their ratios,
-measured in one run. Both runs must give the same rounds and goals, else the benchmark fails."""
+run in-process (the ``pybullet`` world), over ROS 2 (the ``ros2`` world: the robot node in a
+process of its own, every skill an action goal, recorded as MCAP) and against the same robot as
+a standard ROS 2 robot (``--robot-profile pybullet-standard``: Nav2, ros2_control, TF,
+vision_msgs; llmpas plans the arm's trajectories and keeps its own planning scene), alternately,
+``--repeats`` times each, none rendering snapshots; the table gives the wall time of each (with
+the node's start and the connection for ROS 2), the loop's execution and planning time, and
+their ratios to in-process, measured in one run. The ROS 2 run must give the in-process rounds
+and goals, else the benchmark fails; whether the standard robot's do is reported."""
 
 from __future__ import annotations
 
@@ -28,12 +31,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", help="write the measurements to this JSON file")
 
 
-def _once(world: str, scenario: str, llm: str) -> dict[str, Any]:
+WORLDS = {"pybullet": None, "ros2": None, "standard": "pybullet-standard"}  # -> robot profile
+
+
+def _once(label: str, scenario: str, llm: str) -> dict[str, Any]:
     from llmpas.experiments.worlds import LoopConfig, llm_for, run_loop
     from llmpas.worlds.api import RunOptions
 
-    # no snapshots in either: the robot node renders none, so the in-process run must not
-    config = LoopConfig(options=RunOptions(snapshots=False))
+    world = "pybullet" if label == "pybullet" else "ros2"
+    # no snapshots in any: the robot node renders none, so the in-process run must not
+    config = LoopConfig(options=RunOptions(snapshots=False, robot_profile=WORLDS[label]))
     t0 = time.perf_counter()
     result = run_loop(scenario, llm_for(llm, None, world), config, world=world)
     wall = time.perf_counter() - t0
@@ -49,33 +56,57 @@ def _once(world: str, scenario: str, llm: str) -> dict[str, Any]:
 def command(args: argparse.Namespace, console: Console) -> int:
     if args.repeats < 1:
         raise ValueError(f"--repeats must be >= 1, got {args.repeats}")
-    runs: dict[str, list[dict[str, Any]]] = {"pybullet": [], "ros2": []}
+    runs: dict[str, list[dict[str, Any]]] = {label: [] for label in WORLDS}
     for i in range(args.repeats):
-        for world in runs:
-            with console.status(f"{args.scenario} on {world} ({i + 1}/{args.repeats}) ..."):
-                runs[world].append(_once(world, args.scenario, args.llm))
-    same = all(
-        a["rounds"] == b["rounds"] and a["success"] == b["success"]
-        for a, b in zip(runs["pybullet"], runs["ros2"], strict=True)
-    )
+        for label in runs:
+            with console.status(f"{args.scenario} on {label} ({i + 1}/{args.repeats}) ..."):
+                runs[label].append(_once(label, args.scenario, args.llm))
+
+    def same_as_local(label: str) -> bool:
+        return all(
+            a["rounds"] == b["rounds"] and a["success"] == b["success"]
+            for a, b in zip(runs["pybullet"], runs[label], strict=True)
+        )
+
+    same, standard_same = same_as_local("ros2"), same_as_local("standard")
     table = Table(title=f"{args.scenario}, --llm {args.llm}: ROS 2 against in-process")
-    for col in ("measure (median)", "in-process", "over ROS 2", "ratio"):
+    for col in ("measure (median)", "in-process", "over ROS 2", "ratio", "standard robot",
+                "ratio"):  # fmt: skip
         table.add_column(col)
     summary: dict[str, Any] = {}
     for key, label in (("wall", "run wall time"), ("execute", "execution"), ("plan", "planning")):
         local = statistics.median(r[key] for r in runs["pybullet"])
         ros = statistics.median(r[key] for r in runs["ros2"])
+        std = statistics.median(r[key] for r in runs["standard"])
         ratio = ros / local if local > 0 else float("nan")
-        summary[key] = {"in_process": local, "ros2": ros, "ratio": ratio}
-        table.add_row(label, f"{local:.2f} s", f"{ros:.2f} s", f"{ratio:.2f}x")
+        std_ratio = std / local if local > 0 else float("nan")
+        summary[key] = {
+            "in_process": local,
+            "ros2": ros,
+            "ratio": ratio,
+            "standard": std,
+            "standard_ratio": std_ratio,
+        }
+        table.add_row(
+            label, f"{local:.2f} s", f"{ros:.2f} s", f"{ratio:.2f}x", f"{std:.2f} s",
+            f"{std_ratio:.2f}x",
+        )  # fmt: skip
     console.print(table)
-    rounds = runs["ros2"][0]["rounds"]
-    console.print(
-        f"rounds and goals {'the same' if same else 'DIFFERENT'} ({len(rounds)} rounds: "
-        f"{', '.join(rounds)})"
-    )
+    for label, agrees in (("over ROS 2", same), ("standard robot", standard_same)):
+        rounds = runs["ros2" if label == "over ROS 2" else "standard"][0]["rounds"]
+        console.print(
+            f"{label}: rounds and goals {'the same' if agrees else 'DIFFERENT'} as in-process "
+            f"({len(rounds)} rounds: {', '.join(rounds)})"
+        )
     if args.json:
-        out = {"scenario": args.scenario, "llm": args.llm, "same": same, **summary, "runs": runs}
+        out = {
+            "scenario": args.scenario,
+            "llm": args.llm,
+            "same": same,
+            "standard_same": standard_same,
+            **summary,
+            "runs": runs,
+        }
         atomic_write(Path(args.json), json.dumps(out, indent=2))
     return 0 if same else 1
 

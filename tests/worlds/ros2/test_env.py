@@ -25,6 +25,28 @@ def test_environment_keeps_discovery_on_localhost(tmp_path: Path) -> None:
     assert env["X"] == "1"  # the rest passes through (the ROS wheels' bootstrap variables)
 
 
+def test_the_middleware_is_the_users_unless_a_profile_names_one(tmp_path: Path) -> None:
+    user = {"RMW_IMPLEMENTATION": "rmw_cyclonedds_cpp"}
+    assert RosEnv(5, tmp_path).environ(user)["RMW_IMPLEMENTATION"] == "rmw_cyclonedds_cpp"
+    assert "RMW_IMPLEMENTATION" not in RosEnv(5, tmp_path).environ({})  # ROS 2's default
+    chosen = RosEnv(5, tmp_path, rmw="rmw_fastrtps_cpp").environ(user)
+    assert chosen["RMW_IMPLEMENTATION"] == "rmw_fastrtps_cpp"
+    assert chosen["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST"  # isolation stays
+    with pytest.raises(ValueError, match="RMW_IMPLEMENTATION"):
+        RosEnv(5, tmp_path, rmw="cyclone")
+
+
+def test_a_middleware_that_is_not_installed_is_named(tmp_path: Path) -> None:
+    from llmpas.worlds.ros2.env import missing_rmw
+
+    (tmp_path / "librmw_mine.so").write_bytes(b"")
+    lib = {"LD_LIBRARY_PATH": str(tmp_path)}
+    assert missing_rmw({**lib, "RMW_IMPLEMENTATION": "rmw_mine"}) is None
+    assert missing_rmw(lib) is None  # none named: ROS 2's default
+    problem = missing_rmw({**lib, "RMW_IMPLEMENTATION": "rmw_nothing_cpp"})
+    assert problem is not None and "RMW_IMPLEMENTATION=rmw_nothing_cpp" in problem
+
+
 def test_a_user_widens_discovery_only_deliberately(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -27,10 +27,11 @@ from typing import Any, TypeVar
 
 from llmpas.errors import RobotLostError
 from llmpas.execution.world import Observation, Outcome, SkillResult, finish
-from llmpas.worlds.pybullet.scene import HOME_CONF, Scene
+from llmpas.worlds.pybullet.scene import Scene
 from llmpas.worlds.pybullet.values import ArmGoal, BaseConf, ObjectPose
 from llmpas.worlds.ros2 import convert
-from llmpas.worlds.ros2.node import ACTIONS, FJT, GRIPPER, LOOK, NAV, SKILL, STATE
+from llmpas.worlds.ros2.node import ACTIONS, FJT, GRIPPER, LOOK, NAV, SKILL, STATE, action_names
+from llmpas.worlds.ros2.profile import RobotProfile
 
 log = logging.getLogger(__name__)
 
@@ -168,6 +169,7 @@ class RosRobot:
         scene: Scene,
         timeouts: Timeouts | None = None,
         on_goal: Callable[[str, str, Any], None] | None = None,
+        profile: RobotProfile | None = None,
     ) -> None:
         import rclpy
         from control_msgs.action import FollowJointTrajectory, GripperCommand
@@ -180,7 +182,10 @@ class RosRobot:
         self.scene = scene  # the planning scene, mirrored from the robot after every goal
         self.timeouts = timeouts or Timeouts()
         self.on_goal = on_goal or (lambda channel, kind, msg: None)
-        self.node = rclpy.create_node("llmpas_client", context=context)
+        self.profile = profile or RobotProfile()
+        self.node = rclpy.create_node(
+            "llmpas_client", context=context, namespace=self.profile.namespace or None
+        )
         self.types = {
             NAV: NavigateToPose,
             FJT: FollowJointTrajectory,
@@ -188,8 +193,9 @@ class RosRobot:
             SKILL: Skill,
             LOOK: Look,
         }
-        self.clients = {n: ActionClient(self.node, t, n) for n, t in self.types.items()}
-        self.state_client = self.node.create_client(GetSceneState, STATE)
+        names = action_names(self.profile)
+        self.clients = {n: ActionClient(self.node, t, names[n]) for n, t in self.types.items()}
+        self.state_client = self.node.create_client(GetSceneState, self.profile.actions.state)
         self.executor = SingleThreadedExecutor(context=context)
         self.executor.add_node(self.node)
         # rclpy files a request's future only after sending it: a reply the spinner takes in
@@ -311,7 +317,7 @@ class RosRobot:
 
     def move_arm(self, target: Any) -> Outcome:
         if isinstance(target, str) and target == "home":
-            return self._joints(HOME_CONF)
+            return self._joints(self.profile.arm.home)
         if not isinstance(target, ArmGoal):
             return SkillResult.failure(f"not an arm goal: {target!r}", reason="bad_value")
         return self._skill("move_arm", convert.arm_goal_json(target))
@@ -321,7 +327,7 @@ class RosRobot:
 
         goal = self.types[FJT].Goal()
         goal.trajectory.header.frame_id = "base_link"
-        goal.trajectory.joint_names = list(convert.PANDA_JOINTS)
+        goal.trajectory.joint_names = list(self.profile.arm.joints)
         point = JointTrajectoryPoint()
         point.positions = [float(v) for v in q]
         point.time_from_start.sec = 3

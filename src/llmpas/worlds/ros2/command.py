@@ -13,6 +13,7 @@ import logging
 import sys
 import tempfile
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 
 from llmpas.errors import LlmpasError, UsageError, one_line
@@ -30,6 +31,18 @@ def parser(prog: str = "llmpas robot pybullet") -> argparse.ArgumentParser:
     p.add_argument("--domain", type=int, help="ROS_DOMAIN_ID (default: $ROS_DOMAIN_ID, else 57)")
     p.add_argument("--log-dir", help="ROS_LOG_DIR and the node's files (default: a temp folder)")
     p.add_argument("--ready", help="write this file once every server is up")
+    p.add_argument(
+        "--robot-profile",
+        metavar="FILE",
+        help="its profile: action and topic names, namespace, QoS of its publishers "
+        "(YAML, or a shipped name: pybullet, pybullet-standard)",
+    )
+    p.add_argument(
+        "--standard",
+        action="store_true",
+        help="serve standard interfaces only: Nav2, ros2_control's two actions, TF, "
+        "joint_states, robot_description, vision_msgs/Detection3DArray",
+    )
     for fault in FAULTS:
         p.add_argument(
             f"--{fault}",
@@ -48,8 +61,10 @@ def run(argv: Sequence[str]) -> int:
     args = parser().parse_args(list(argv))
     if importlib.util.find_spec("rclpy") is None:
         raise UsageError('robot: needs the ros extra (pip install -e ".[ros]"): no rclpy')
-    from llmpas.worlds.ros2.env import from_environment
+    from llmpas.worlds.ros2.env import from_environment, missing_rmw
     from llmpas.worlds.ros2.node import Faults, serve
+    from llmpas.worlds.ros2.profile import ProfileError
+    from llmpas.worlds.ros2.profile import load as load_profile
 
     known = scenarios()
     if args.scenario not in known:
@@ -57,11 +72,24 @@ def run(argv: Sequence[str]) -> int:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s robot: %(message)s", force=True)
     log_dir = Path(args.log_dir or tempfile.mkdtemp(prefix="llmpas-robot-"))
     try:
-        env = from_environment(log_dir / "ros", args.domain)
+        profile = load_profile(args.robot_profile or "pybullet")
+        if args.standard and not profile.standard:
+            profile = (
+                replace(profile, interfaces="standard")
+                if args.robot_profile
+                else load_profile("pybullet-standard")
+            )
+        env = from_environment(log_dir / "ros", args.domain, profile.rmw)
+    except ProfileError as e:
+        raise UsageError(str(e)) from None
     except ValueError as e:
         raise UsageError(str(e.args[0] if e.args else e)) from None
+    problem = missing_rmw(env.environ())
+    if problem is not None:
+        raise UsageError(problem)
     faults = Faults(frozenset(args.reject), frozenset(args.abort), frozenset(args.stall))
-    serve(args.scenario, args.seed, env, faults, Path(args.ready) if args.ready else None)
+    ready = Path(args.ready) if args.ready else None
+    serve(args.scenario, args.seed, env, faults, ready, profile)
     return 0
 
 

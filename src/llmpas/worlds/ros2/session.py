@@ -41,28 +41,46 @@ from llmpas.worlds.pybullet.camera import CameraConfig
 from llmpas.worlds.pybullet.decomposition import ExplorationConfig
 from llmpas.worlds.pybullet.plugin import PyBulletSession, table_search
 from llmpas.worlds.pybullet.reasoning import prompt_tables, vocabulary
-from llmpas.worlds.pybullet.run import PyBulletScenario, belief_for, resolve, scenarios
+from llmpas.worlds.pybullet.run import (
+    PyBulletScenario,
+    belief_for,
+    resolve,
+    scenarios,
+    setup_scene,
+)
 from llmpas.worlds.pybullet.scene import Scene, open_client
 from llmpas.worlds.pybullet.streams import Geometry
 from llmpas.worlds.ros2.client import RobotUnavailableError, RosRobot, Timeouts
 from llmpas.worlds.ros2.env import (
     RosEnv,
     from_environment,
+    missing_rmw,
     random_domain,
     reclaim_shared_memory,
 )
+from llmpas.worlds.ros2.profile import ProfileError, RobotProfile
+from llmpas.worlds.ros2.profile import load as load_profile
 from llmpas.worlds.ros2.record import McapRecorder, type_name
+from llmpas.worlds.ros2.standard_robot import StandardRobot
 
 log = logging.getLogger(__name__)
 
 ROBOT_VAR = "LLMPAS_ROS_ROBOT"  # "external": connect to a running robot, start none
 TIMEOUT_VAR = "LLMPAS_ROS_DISCOVER_TIMEOUT"  # seconds to find every server (default 30)
 BAG = "ros.mcap"
-TOPICS = {  # recorded topics: name -> (package, message)
+TOPICS = {  # recorded topics: the profile's topic key -> (package, message)
     "odom": ("nav_msgs.msg", "Odometry"),
     "joint_states": ("sensor_msgs.msg", "JointState"),
     "detections": ("llmpas_interfaces.msg", "Detections"),
     "scene_markers": ("visualization_msgs.msg", "MarkerArray"),
+}
+STANDARD_TOPICS = {  # a standard robot's
+    "odom": ("nav_msgs.msg", "Odometry"),
+    "joint_states": ("sensor_msgs.msg", "JointState"),
+    "detections": ("vision_msgs.msg", "Detection3DArray"),
+    "wrist_detections": ("vision_msgs.msg", "Detection3DArray"),
+    "tf": ("tf2_msgs.msg", "TFMessage"),
+    "tf_static": ("tf2_msgs.msg", "TFMessage"),
 }
 
 
@@ -83,6 +101,7 @@ class Ros2Session(PyBulletSession):
         client: int,
         context: Any,
         folder: Path,
+        profile: RobotProfile,
     ) -> None:
         self.scenario = scenario
         self.seed = scenario.seed if options.seed is None else options.seed
@@ -92,13 +111,23 @@ class Ros2Session(PyBulletSession):
         self.timings: dict[str, float] = {}
         self.folder = folder
         t0 = time.perf_counter()
+        self.profile = profile
         self.scene = Scene(client, scenario.scene)  # the planning scene
         self.bag = McapRecorder(folder / BAG)
-        self.robot = RosRobot(context, self.scene, plugin.timeouts, self._record_goal)
+        self.robot: RosRobot | StandardRobot
+        if profile.standard:  # llmpas's own planning scene: the scenario's layout to start
+            setup_scene(self.scene, scenario)
+            rng = np.random.default_rng([self.seed, 0])
+            self.robot = StandardRobot(
+                context, self.scene, profile, rng, plugin.timeouts, self._record_goal
+            )
+        else:
+            self.robot = RosRobot(context, self.scene, plugin.timeouts, self._record_goal, profile)
         self.world = self.robot  # type: ignore[assignment]  # what PyBulletSession reads
         self.saved = False
+        topics = STANDARD_TOPICS if profile.standard else TOPICS
         try:
-            self.subscriptions = [self._subscribe(t, *m) for t, m in TOPICS.items()]
+            self.subscriptions = [self._subscribe(t, *m) for t, m in topics.items()]
             self.robot.wait_for_servers()
         except BaseException:
             self.bag.close()
@@ -123,24 +152,24 @@ class Ros2Session(PyBulletSession):
 
     # ------------------------------------------------------------------ recording
 
-    def _subscribe(self, topic: str, module: str, name: str) -> Any:
+    def _subscribe(self, key: str, module: str, name: str) -> Any:
+        """Record the profile's topic ``key`` with the profile's QoS (a subscription that asks
+        more than the publisher offers, RELIABLE of a best-effort one or TRANSIENT_LOCAL of a
+        VOLATILE one, gets nothing)."""
         import importlib
 
-        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-
         kind = getattr(importlib.import_module(module), name)
-        latched = topic != "detections"  # the robot latches its state, not its detections
-        qos = QoSProfile(
-            depth=10,
-            reliability=ReliabilityPolicy.RELIABLE,
-            durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
-        )
+        topic = getattr(self.profile.topics, key)
         full = f"{module.split('.')[0]}/msg/{name}"
+        channel = self.robot.node.resolve_topic_name(topic.name)
         return self.robot.node.create_subscription(
-            kind, topic, lambda msg: self.bag.write(f"/{topic}", full, msg), qos
+            kind, topic.name, lambda msg: self.bag.write(channel, full, msg), topic.qos.rclpy()
         )
 
     def _record_goal(self, channel: str, kind: str, msg: Any) -> None:
+        namespace = self.profile.namespace
+        if namespace and not channel.startswith(namespace + "/"):
+            channel = namespace + channel  # the llmpas client's channels are relative
         self.bag.write(channel, type_name(msg), msg)
         if kind == "Goal":
             self._record_anomalies()
@@ -191,7 +220,12 @@ class Ros2Session(PyBulletSession):
             "goals": self.robot.goals,
             "environment": {  # this process's, set before rclpy started
                 k: os.environ.get(k, "")
-                for k in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "ROS_LOG_DIR")
+                for k in (
+                    "ROS_AUTOMATIC_DISCOVERY_RANGE",
+                    "ROS_DOMAIN_ID",
+                    "ROS_LOG_DIR",
+                    "RMW_IMPLEMENTATION",
+                )
             },
             "anomalies": self.anomalies,
             "bag": BAG,
@@ -199,9 +233,15 @@ class Ros2Session(PyBulletSession):
                 t: {"type": self.bag.types[t], "messages": n}
                 for t, n in sorted(self.bag.counts.items())
             },
+            "profile": {
+                "name": self.profile.name,
+                "interfaces": self.profile.interfaces,
+                "namespace": self.profile.namespace,
+                "file": self.profile.source,
+            },
             "holds": "the goals, feedback and results of every action, the robot's odometry, "
-            "joint states, detections and scene markers, and each anomaly as "
-            "diagnostic_msgs/DiagnosticArray on /diagnostics",
+            "joint states, detections and scene markers (a standard robot's: TF), and each "
+            "anomaly as diagnostic_msgs/DiagnosticArray on /diagnostics",
         }
         artifact = {
             "file": BAG,
@@ -251,6 +291,10 @@ class Ros2Plugin:
                 plugin = replace(self, timeouts=replace(self.timeouts, discover=float(wait)))
             except ValueError:
                 raise RosError(f"{TIMEOUT_VAR}={wait!r}: not a number of seconds") from None
+        try:
+            profile = load_profile(options.robot_profile or "pybullet")
+        except ProfileError as e:
+            raise RosError(str(e)) from None
         reclaimed = reclaim_shared_memory()  # what killed nodes left in /dev/shm
         if reclaimed:
             log.info("removed %d shared-memory segments of ended ROS 2 processes", reclaimed)
@@ -258,19 +302,23 @@ class Ros2Plugin:
         external = os.environ.get(ROBOT_VAR, "").strip().lower() == "external"
         try:
             env = (
-                from_environment(folder / "log")
+                from_environment(folder / "log", rmw=profile.rmw)
                 if external
-                else RosEnv(random_domain(), folder / "log")
+                else RosEnv(random_domain(), folder / "log", rmw=profile.rmw)
             )
         except ValueError as e:
             raise RosError(str(e)) from None
+        problem = missing_rmw(env.environ())
+        if problem is not None:
+            raise RosError(problem)
         with ExitStack() as stack:
             if not external:
-                stack.enter_context(robot_process(chosen.name, seed, env, folder))
+                extra = ("--robot-profile", profile.source) if profile.source else ()
+                stack.enter_context(robot_process(chosen.name, seed, env, folder, extra))
             context = stack.enter_context(ros_context(env))
             client = stack.enter_context(open_client(False))
             try:
-                session = Ros2Session(chosen, plugin, options, client, context, folder)
+                session = Ros2Session(chosen, plugin, options, client, context, folder, profile)
             except RobotUnavailableError as e:
                 hint = "" if external else f" (the robot node did not come up: {folder}/robot.log)"
                 raise RosError(f"{e}{hint}; ROS_DOMAIN_ID={env.domain}") from None
@@ -296,9 +344,14 @@ def ros_context(env: RosEnv) -> Iterator[Any]:
 
     context = rclpy.Context()
     # Ctrl-C stays a KeyboardInterrupt: the robot cancels its goal before the context ends
-    rclpy.init(
-        context=context, domain_id=env.domain, signal_handler_options=SignalHandlerOptions.NO
-    )
+    try:
+        rclpy.init(
+            context=context, domain_id=env.domain, signal_handler_options=SignalHandlerOptions.NO
+        )
+    except Exception as e:  # rclpy's RCLError: the middleware would not load, say
+        rmw = os.environ.get("RMW_IMPLEMENTATION") or "ROS 2's default"
+        first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        raise RosError(f"ROS 2 did not start with RMW_IMPLEMENTATION={rmw}: {first}") from None
     try:
         yield context
     finally:
