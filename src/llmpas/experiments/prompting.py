@@ -120,7 +120,7 @@ class PromptingConfig:
     repairs: int = 2
     max_rounds: int = 3
     max_tokens: int = 256
-    max_time: float = 60.0  # planner limit per plan
+    max_time: float = 600.0  # planner safety net per plan (counted limits decide)
     suite: Path = SUITE_DIR
     tasks: tuple[str, ...] | None = None
     record: Path | None = None
@@ -223,7 +223,7 @@ def loop_config(
         ),
         max_rounds=config.max_rounds,
         sweep=SweepBudget(places=config.sweep_places),
-        options=RunOptions(planner=PlannerConfig(max_time=config.max_time)),
+        options=RunOptions(planner=PlannerConfig.validation(max_time=config.max_time)),
     )
 
 
@@ -724,7 +724,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--decoding", default="grammar", choices=DECODINGS)
     p.add_argument("--repairs", type=int, default=2, help="repair prompts per answer at most")
     p.add_argument("--rounds", type=int, default=3, help="LLM consultations per run at most")
-    p.add_argument("--max-time", type=float, default=60.0, help="planner seconds per plan")
+    p.add_argument(
+        "--max-time",
+        type=float,
+        default=600.0,
+        help="planner safety net, seconds per plan (counted limits decide the verdict)",
+    )
     p.add_argument(
         "--sweep-places",
         type=int,

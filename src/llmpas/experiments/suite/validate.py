@@ -181,7 +181,12 @@ def add_validate_arguments(p: argparse.ArgumentParser) -> None:
         "0: one run in this process",
     )
     p.add_argument("--jobs", type=int, default=1, help="oracle runs in parallel processes")
-    p.add_argument("--max-time", type=float, default=60.0, help="planner seconds per plan")
+    p.add_argument(
+        "--max-time",
+        type=float,
+        default=600.0,
+        help="planner safety net, seconds per plan (counted limits decide the verdict)",
+    )
 
 
 def validate_command(args: argparse.Namespace, console: Console) -> int:
@@ -189,7 +194,9 @@ def validate_command(args: argparse.Namespace, console: Console) -> int:
     if args.seeds < 0 or args.jobs < 1:
         raise UsageError("--seeds must be >= 0 and --jobs >= 1")
     folder = Path(args.folder)
-    config = LoopConfig(options=RunOptions(planner=PlannerConfig(max_time=args.max_time)))
+    config = LoopConfig(
+        options=RunOptions(planner=PlannerConfig.validation(max_time=args.max_time))
+    )
     try:
         files = len(task_files(folder))
     except SuiteError:

@@ -96,7 +96,7 @@ class TabletopSession(KitchenSession):
         belief = self._initial_belief()
         self.geometry = FixedGeometry(self.scene, np.random.default_rng([seed, 1]), WORKSPACE)
         self.context = Context(self.world, self.world, belief, np.random.default_rng([seed, 2]))
-        self.planner = options.planner or PlannerConfig(max_time=60.0, seed=seed)
+        self.planner = options.planner or PlannerConfig.validation(seed=seed)
         self.executor = options.executor or ExecutorConfig()
         self.search = table_search(scenario.scene, belief)  # searching is looking at a table
         self.domain: Domain = load_domain()
