@@ -125,3 +125,45 @@ def test_scoring_many_choices_is_bounded_as_a_whole() -> None:
     with serve(slow) as srv, pytest.raises(LLMServerError, match="took over 4 s") as err:
         OpenAIBackend("tiny", base_url=srv.url, timeout=1.0, max_retries=0).score(many)
     assert "\n" not in str(err.value) and len(srv.received) < 40
+
+
+def test_with_a_tokenizer_endpoint_the_model_s_own_tokens_are_forced() -> None:
+    """``llama_cpp.server`` tokenizes (``/extras/tokenize``): the grammar forces those tokens
+    one by one (the sampler could pick another segmentation of the same text), and the
+    prefix's tokens are left out by count."""
+    import threading
+    from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+
+    vocab = {"": [], "Goals: ": [7, 8], "Goals: (and (heated bread))": [7, 9, 10, 11]}
+    asked: list[dict] = []
+
+    class Handler(BaseHTTPRequestHandler):
+        def do_POST(self) -> None:
+            body = json.loads(self.rfile.read(int(self.headers["Content-Length"])))
+            asked.append({"path": self.path, **body})
+            if self.path == "/extras/tokenize":
+                data = json.dumps({"tokens": vocab[body["input"]]}).encode()
+            else:
+                tokens = [("Goals:", -0.1), (" (", -0.2), ("and (heated", -0.3), (" bread))", -0.4)]
+                data = scored_body(tokens)
+            self.send_response(200)
+            self.send_header("Content-Length", str(len(data)))
+            self.end_headers()
+            self.wfile.write(data)
+
+        def log_message(self, *args: object) -> None:
+            pass
+
+    httpd = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+    threading.Thread(target=httpd.serve_forever, daemon=True).start()
+    try:
+        url = f"http://127.0.0.1:{httpd.server_address[1]}/v1"
+        one = ScoreRequest(REQUEST.messages, ("(and (heated bread))",), PREFIX)
+        scores = backend(url).score(one)
+    finally:
+        httpd.shutdown()
+        httpd.server_close()
+    assert scores.logprobs == ((-0.2, -0.3, -0.4),)  # after the one token the prefix shares
+    chat = next(a for a in asked if a["path"] == "/v1/chat/completions")
+    assert chat["grammar"] == "root ::= <[7]> <[9]> <[10]> <[11]>\n"
+    assert chat["max_tokens"] == 5

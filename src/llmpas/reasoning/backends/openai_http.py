@@ -134,6 +134,7 @@ class OpenAIBackend:
         self.server = f"{self.name} at {self.endpoint.hostport}"
         self._client = _sdk_client(self.base_url, self._key, timeout, max_bytes)
         self._cannot_score = ""  # why this server cannot score ("": not known to fail)
+        self._no_tokenizer = False  # the server has no /extras/tokenize (llama_cpp.server's)
 
     def __repr__(self) -> str:  # no key in here, ever
         return f"OpenAIBackend(model={self.model!r}, base_url={self.base_url!r})"
@@ -182,11 +183,18 @@ class OpenAIBackend:
 
     def _score_one(self, request: ScoreRequest, choice: str) -> tuple[tuple[float, ...], int]:
         text = request.prefix + choice
+        tokens = self._canonical(request.prefix, text)
+        if tokens is not None:  # the model's own tokens of the text, forced one by one
+            forced_tokens, skip = tokens
+            grammar = "root ::= " + " ".join(f"<[{t}]>" for t in forced_tokens) + "\n"
+            bound = len(forced_tokens) + 1
+        else:  # the text, tokens as the sampler picks them
+            grammar, skip, bound = f"root ::= {gbnf_literal(text)}\n", -1, len(text.encode()) + 4
         forced = Request(
             request.messages,
             temperature=0.0,
-            max_tokens=min(len(text.encode("utf-8")) + 4, MAX_SCORED_TOKENS),
-            grammar=f"root ::= {gbnf_literal(text)}\n",
+            max_tokens=min(bound, MAX_SCORED_TOKENS),
+            grammar=grammar,
         )
         body = {**self.create_kwargs(forced), "logprobs": True, "top_logprobs": 1}
         try:
@@ -197,9 +205,49 @@ class OpenAIBackend:
             raise
         completion = self._json(data)
         try:
+            if skip >= 0:
+                return _token_logprobs(completion, text, skip, len(forced_tokens))
             return _choice_logprobs(completion, text, len(request.prefix))
         except _Shape as err:
             raise self._fail(Fault.MALFORMED, f"not a scored chat completion: {err}") from None
+
+    def _canonical(self, prefix: str, text: str) -> tuple[list[int], int] | None:
+        """``text``'s tokens as the model's tokenizer writes them (``llama_cpp.server``'s
+        ``/extras/tokenize``; a BOS it adds left out) and how many of them ``prefix`` alone
+        shares; None where the server has no tokenizer endpoint (then the grammar forces the
+        text and the sampler picks its tokens, which may be another segmentation)."""
+        if self._no_tokenizer:
+            return None
+        try:
+            empty, head, full = (self._tokenize(t) for t in ("", prefix, text))
+        except (LLMServerError, _Shape):
+            self._no_tokenizer = True
+            return None
+        bos = len(empty) if empty == full[: len(empty)] else 0
+        full, head = full[bos:], head[bos:]
+        shared = 0
+        while shared < min(len(head), len(full) - 1) and head[shared] == full[shared]:
+            shared += 1
+        return (full, shared) if full and len(full) <= MAX_SCORED_TOKENS else None
+
+    def _tokenize(self, text: str) -> list[int]:
+        import httpx2
+        import openai
+
+        url = f"{self.endpoint.scheme}://{self.endpoint.hostport}/extras/tokenize"
+        body = json.dumps({"model": self.model, "input": text}).encode()
+        try:
+            answer = self._client.post(url, cast_to=httpx2.Response, content=body)
+        except openai.APIStatusError as err:
+            raise self._fail(Fault.HTTP, f"HTTP {err.status_code}", err.status_code) from None
+        except openai.APIConnectionError as err:
+            raise self._transport_failure(err) from None
+        tokens = _field(self._json(answer.content), "tokens", list, "tokenize")
+        if not all(
+            isinstance(t, int) and not isinstance(t, bool) and 0 <= t < 1 << 31 for t in tokens
+        ):
+            raise _Shape("tokenize.tokens are not token ids")
+        return tokens
 
     def _post(self, body: dict[str, Any]) -> tuple[bytes, float]:
         """One POST of ``body`` to ``/chat/completions`` (retried as :meth:`complete` is): the
@@ -323,6 +371,36 @@ class _NoScores(ValueError):
 
 SCORE_BUDGET = 4  # one score request's choices together: at most this many request timeouts
 MAX_SCORED_TOKENS = 512  # the tokens of one scored choice, at most (a goal set is ~10-60)
+
+
+def _token_logprobs(
+    completion: Any, text: str, skip: int, count: int
+) -> tuple[tuple[float, ...], int]:
+    """The log-probabilities of the answer's tokens after its first ``skip`` (the prefix's),
+    when the answer is ``text`` in ``count`` tokens (each forced by the grammar)."""
+    choices = _field(completion, "choices", list, "answer")
+    if not choices:
+        raise _Shape("answer.choices is empty")
+    message = _field(choices[0], "message", dict, "answer.choices[0]")
+    if message.get("content") != text:
+        raise _NoScores("its answer is not the choice it was asked to score (grammar ignored?)")
+    logprobs = choices[0].get("logprobs")
+    content = logprobs.get("content") if isinstance(logprobs, dict) else None
+    if not isinstance(content, list) or len(content) < count:
+        raise _NoScores("it returns no log-probability for each token of the choice")
+    out = [_logprob(item, i) for i, item in enumerate(content[:count])]
+    return tuple(out[skip:]), _tokens(completion.get("usage"), "prompt_tokens")
+
+
+def _logprob(item: Any, i: int) -> float:
+    where = f"answer.choices[0].logprobs.content[{i}]"
+    if not isinstance(item, dict):
+        raise _Shape(f"{where} is not an object")
+    value: Any = item.get("logprob")
+    ok = isinstance(value, int | float) and not isinstance(value, bool)
+    if not ok or not -1e6 < float(value) <= 1e-3:  # float32 rounding: a hair above 0
+        raise _Shape(f"{where}.logprob is {_kind(value)}")
+    return float(value)
 
 
 def _choice_logprobs(completion: Any, text: str, skip: int) -> tuple[tuple[float, ...], int]:
