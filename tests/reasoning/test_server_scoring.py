@@ -114,11 +114,13 @@ def test_the_server_ranks_a_recorded_case_as_llama_cpp_in_process(server: str) -
     with tiny_backend(n_ctx=N_CTX) as local:
         here = local.score(request)
     assert len(served.logprobs) == len(here.logprobs) == len(request.choices) == CHOICES
-    # the same tokens, each with (almost) the same log-probability: float32 on the server
+    # the same tokens, each with nearly the same log-probability (measured: within 0.18 nats;
+    # the server's float32 and batching differ; a token paired with another position's logits
+    # would be off by nats)
     assert [len(lp) for lp in served.logprobs] == [len(lp) for lp in here.logprobs]
     for a, b in zip(served.logprobs, here.logprobs, strict=True):
-        assert a == pytest.approx(b, abs=0.05)
-    assert ranking(served) == ranking(here)
+        assert a == pytest.approx(b, abs=0.5)
+    assert ranking(served) == ranking(here), (served.mean(), here.mean())
     assert len(set(ranking(here)[:3])) == 3 and len(set(here.mean())) > 1  # not all tied
 
 
