@@ -1,7 +1,7 @@
 """A scriptable OpenAI-compatible server on 127.0.0.1 for tests, able to misbehave.
 
 It answers ``POST .../chat/completions`` with the next scripted :class:`Reply` (the last one
-repeats): any status and body (a body may be a function of the request's headers, e.g. a 401
+repeats; any other path: 404): any status and body (a body may be a function of the request's headers, e.g. a 401
 echoing the ``Authorization`` header), sent after a delay or trickled byte by byte. Everything
 is bounded: waits end when the server stops, request bodies are capped, threads are daemons.
 """
@@ -80,6 +80,11 @@ class Handler(BaseHTTPRequestHandler):
     fake: FakeServer  # set on a per-server subclass
 
     def do_POST(self) -> None:
+        if not self.path.endswith("/chat/completions"):  # as OpenAI: no other endpoint here
+            self.send_response(404)
+            self.send_header("Content-Length", "0")
+            self.end_headers()
+            return
         length = min(int(self.headers.get("Content-Length", 0)), MAX_REQUEST)
         body = json.loads(self.rfile.read(length) or b"{}")
         headers = {k.lower(): v for k, v in self.headers.items()}

@@ -565,7 +565,13 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
     path = _scenario_arg(name, args.scenario)
     scenario, intent = _suite_task(name, path)
     try:
-        method = MethodConfig(method=args.method, decoding=args.decoding, votes=args.votes)
+        method = MethodConfig(
+            method=args.method,
+            decoding=args.decoding,
+            votes=args.votes,
+            scoring=args.scoring,
+            task=str(args.scenario),
+        )
         assists = parse_assists(args.assists or args.protocol)
         settings = LoopSettings(
             method=method,
@@ -673,7 +679,7 @@ def _add_report(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> Non
 def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     from llmpas.experiments.jobs import add_llm_argument
     from llmpas.reasoning.assists import PROTOCOLS, Assists
-    from llmpas.reasoning.methods import DECODINGS, method_names
+    from llmpas.reasoning.methods import DECODINGS, SCORINGS, method_names
 
     p = sub.add_parser("run", help="the closed loop: plan, execute, reason about anomalies")
     p.add_argument(
@@ -692,6 +698,12 @@ def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p.add_argument("--no-llm", action="store_true", help="plan and execute once, no reasoning")
     add_llm_argument(p, replan=True)
     p.add_argument("--method", default="flp", choices=method_names())
+    p.add_argument(
+        "--scoring",
+        default="mean",
+        choices=SCORINGS,
+        help="how flp-choose and prior score candidates (mean, diff, pmi; -words: plain words)",
+    )
     p.add_argument("--decoding", default="grammar", choices=DECODINGS)
     p.add_argument("--rounds", type=positive_int, default=3, help="LLM consultations at most")
     p.add_argument(

@@ -7,6 +7,7 @@ in CI); no assertion is about speed, only about tokens evaluated and answers."""
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Collection
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +20,12 @@ from llmpas.experiments.llm_bench import (
     least_evaluated,
     run_setting,
 )
-from llmpas.reasoning.backends.llamacpp import LlamaSettings, free_cores, settings_before
+from llmpas.reasoning.backends.llamacpp import (
+    LlamaSettings,
+    free_cores,
+    idle_cores,
+    settings_before,
+)
 from llmpas.reasoning.backends.llamacpp_worker import TAIL, KVState, KVStates
 
 from ..tiny_model import needs_tiny_model, smollm2_path
@@ -53,16 +59,62 @@ def test_kv_states_give_the_longest_shared_prefix_and_stay_bounded() -> None:
     assert list(states[[1, 2, 9, *END]].input_ids) == [1, 2]
 
 
-def test_threads_are_the_free_cores_shared_among_jobs(monkeypatch: pytest.MonkeyPatch) -> None:
+def proc_stat(*cpus: tuple[int, int]) -> str:
+    """A /proc/stat with these (busy, idle) jiffies per CPU (user, nice, system, idle, iowait,
+    irq, softirq, steal, guest, guest_nice)."""
+    lines = ["cpu  1 2 3 4 5 6 7 8 0 0"]
+    for i, (busy, idle) in enumerate(cpus):
+        lines.append(f"cpu{i} {busy} 0 0 {idle} 0 0 0 0 0 0")
+    return "\n".join([*lines, "intr 12345", "ctxt 99", ""])
+
+
+def readings(*texts: str) -> Callable[[], str]:
+    it = iter(texts)
+    return lambda: next(it)
+
+
+def test_idle_cores_are_read_from_two_samples_of_the_cpu_counters() -> None:
+    """cpu0 busy throughout, cpu1 idle, cpu2 half: 1.5 idle cores of {0, 1, 2}; cpu3 is not
+    this process's."""
+    before = proc_stat((100, 100), (100, 100), (100, 100), (0, 0))
+    after = proc_stat((130, 100), (100, 130), (115, 115), (0, 30))
+    slept: list[float] = []
+    got = idle_cores({0, 1, 2}, readings(before, after), slept.append, 0.25)
+    assert got == pytest.approx(1.5) and slept == [0.25]
+    assert idle_cores({0, 1, 2, 3}, readings(before, after), slept.append) == pytest.approx(2.5)
+    assert idle_cores({0}, readings("garbage", after), slept.append) is None
+    assert idle_cores({0}, readings(before, before), slept.append) is None  # nothing moved
+
+    def unreadable() -> str:
+        raise OSError("no /proc here")
+
+    assert idle_cores({0}, unreadable, slept.append) is None
+
+
+def test_threads_are_the_cores_idle_now_not_the_last_minute_s_load(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Right after a busy minute the load average still says 16 of 16 cores are busy; the
+    counters say 12 are idle now: 12 threads (shared among the jobs)."""
     monkeypatch.setattr(os, "sched_getaffinity", lambda pid: set(range(16)))
-    monkeypatch.setattr(os, "getloadavg", lambda: (3.7, 0.0, 0.0))
+    monkeypatch.setattr(os, "getloadavg", lambda: (16.0, 8.0, 3.0))
     monkeypatch.delenv("LLMPAS_JOBS", raising=False)
-    assert free_cores() == 12 and free_cores(4) == 3 and free_cores(64) == 1
+    before = proc_stat(*[(0, 0)] * 16)
+    after = proc_stat(*[(100, 0)] * 4, *[(0, 100)] * 12)
+
+    def now(cpus: Collection[int]) -> float | None:
+        return idle_cores(cpus, readings(before, after), lambda s: None)
+
+    assert free_cores(sample=now) == 12 and free_cores(4, sample=now) == 3
+    assert free_cores(64, sample=now) == 1
     monkeypatch.setenv("LLMPAS_JOBS", "2")  # set in each process of --jobs 2
-    assert free_cores() == 6 and LlamaSettings().n_threads == 6
-    monkeypatch.setattr(os, "getloadavg", lambda: (40.0, 0.0, 0.0))  # every core busy
-    assert free_cores() == 1
+    assert free_cores(sample=now) == 6
+    # where the counters cannot be read: the load average, as before
+    assert free_cores(sample=lambda cpus: None) == 1
+    monkeypatch.setattr(os, "getloadavg", lambda: (3.7, 0.0, 0.0))
+    assert free_cores(sample=lambda cpus: None) == 6
     assert settings_before(LlamaSettings(n_threads=4)).n_threads == 1
+    assert LlamaSettings().n_threads == 0  # decided when the model loads
 
 
 def measured(setting: str, *calls: tuple[int, tuple[int, ...]]) -> list[Measured]:
@@ -111,3 +163,36 @@ def test_kv_states_keep_the_answers_and_evaluate_no_prompt_token_twice() -> None
     assert all(m.evaluated + m.reused == m.prompt_tokens for m in after)
     goals = [m for m in after if m.kind == "goals"]
     assert all(m.reused > 0 for m in goals[1:])  # the fixed prefix, kept across consultations
+
+
+def test_strip_evidence_empties_the_anomaly_and_the_first_look() -> None:
+    from llmpas.experiments.llm_bench import strip_evidence
+
+    text = (
+        "## Task\nthe robot must achieve (and (On cube bowl))\n\n## Anomaly\npick cube failed: "
+        "not on table1\n- searched table2\n\n## First look\nIt was moved.\n\n## Output format\nGive"
+    )
+    out = strip_evidence(text)
+    assert "pick cube failed" not in out and "It was moved." not in out
+    assert "## Anomaly\n" in out and "## First look\n" in out
+    assert out.startswith("## Task\nthe robot must achieve") and out.endswith(
+        "## Output format\nGive"
+    )
+
+
+@needs_tiny_model
+def test_scoring_reuses_the_shared_prefix_and_scores_as_a_fresh_evaluation() -> None:
+    """``bench llm``'s cost per candidate: the worker's scoring evaluates the prompt once and
+    each candidate's own tokens; with nothing reused (``fresh``) every candidate evaluates its
+    whole prompt. The rankings agree."""
+    from llmpas.experiments.llm_bench import SCORE_CASSETTES, score_cases, score_costs
+
+    model = smollm2_path()
+    assert model is not None
+    case = score_cases(SCORE_CASSETTES, 1)[0]
+    short = type(case)(case.name, case.messages, case.prefix, case.choices[:4])
+    (cost,) = score_costs(model, LlamaSettings(n_ctx=4096, n_threads=1), [short])
+    assert cost.candidates == 4 and cost.prompt_tokens > 100
+    assert cost.fresh_evaluated > 3 * cost.prompt_tokens  # every candidate: its whole prompt
+    assert cost.reused_evaluated < cost.prompt_tokens + 4 * 40  # the prompt once
+    assert cost.same_ranking

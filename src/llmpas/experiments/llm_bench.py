@@ -15,6 +15,18 @@ Every setting answers all of them in one run, each in a fresh model process:
   each prompt token evaluated once (a prefix any earlier call evaluated is reused) and the
   tokens the defaults generated.
 
+- ``busy-load`` and ``busy-idle`` (``--busy SECONDS``, default 60; 0 leaves them out): each
+  started right after a busy minute (every core this process may use spinning), its threads
+  from the 1-minute load average (the rule before #36, which still counts the minute that just
+  ended) and from a short sample of idle CPU (today's rule, :func:`~llmpas.reasoning.backends.
+  llamacpp.free_cores`).
+
+Scoring candidates (``flp-choose``, ``--scores N`` recorded score requests, default 3, from
+``--score-cassettes``): each scored in one model process with the shared prefix evaluated once
+(the worker's KV reuse: the prompt once, the text candidates share once), and again with nothing
+reused (each candidate with its whole prompt from an empty context); and the prompt without the
+evidence (what ``pmi`` scores too): the cost per candidate of each, and their ratio.
+
 Per setting and call kind the table gives the prompt tokens evaluated and reused, the tokens
 generated, the seconds, and the prompt and generation rates; then the seconds per consultation,
 the ratios, whether the defaults' answers are the same as before (greedy and sampled apart), and
@@ -44,8 +56,13 @@ from llmpas.reasoning.llm import LLMError, Message, Request
 log = logging.getLogger(__name__)
 
 DEFAULT_CASSETTES = Path("tests/data/cassettes/qwen1.5b")  # the main job's, in the repository
+SCORE_CASSETTES = Path("tests/data/cassettes/qwen1.5b-suite")  # flp-choose's recorded scores
 KINDS = ("first-look", "goals", "repair")
-SETTINGS = ("before", "defaults", "limit")
+SETTINGS = ("before", "defaults", "limit", "busy-load", "busy-idle")
+BUSY_LABELS = {
+    "busy-load": "started right after a busy minute, threads from the load average",
+    "busy-idle": "started right after a busy minute, threads from the idle CPU now",
+}
 RATE_GENERATE = 32  # tokens decoded one at a time to measure the generation rate
 
 
@@ -281,6 +298,10 @@ def markdown(measured: Sequence[Measured], about: dict[str, Any]) -> str:
         f"Model `{about['model']}`; prompts: `{about['cassettes']}` ({about['consultations']} "
         f"consultations, {about['calls']} calls); threads: before 1, defaults and limit "
         f"{about['threads']} (free cores when measured; load average {about['load']}).",
+        *[
+            f"{name}: {BUSY_LABELS[name]}: {threads} threads."
+            for name, threads in about.get("busy", {}).items()
+        ],
         "",
         "| setting | call | calls | prompt tokens evaluated | reused | generated | seconds "
         "| prompt tok/s | generation tok/s |",
@@ -295,8 +316,17 @@ def markdown(measured: Sequence[Measured], about: dict[str, Any]) -> str:
     defaults = per_consultation(measured, "defaults")
     limit = per_consultation(measured, "limit")
     lines += ["", "Seconds per consultation (mean):", ""]
-    for name, value in (("before", before), ("defaults", defaults), ("limit", limit)):
-        lines.append(f"- {name}: {value:.1f} s" if value is not None else f"- {name}: -")
+    for name in SETTINGS:
+        value = per_consultation(measured, name)
+        if value is not None or name in ("before", "defaults", "limit"):
+            lines.append(f"- {name}: {value:.1f} s" if value is not None else f"- {name}: -")
+    busy = per_consultation(measured, "busy-load")
+    idle = per_consultation(measured, "busy-idle")
+    if busy and idle:
+        lines.append(
+            f"- started right after a busy minute: threads from the idle CPU are "
+            f"{busy / idle:.2f}x as fast as threads from the load average"
+        )
     if before and defaults:
         lines.append(f"- defaults are {before / defaults:.2f}x as fast as before")
     if limit and defaults:
@@ -363,15 +393,56 @@ def plot(measured: Sequence[Measured], path: Path) -> None:
     plt.close(fig)
 
 
+def busy(seconds: float) -> None:
+    """Every core this process may use spinning for ``seconds`` (a process each, killed after)."""
+    import subprocess
+    import sys
+    import time
+
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    spin = [sys.executable, "-c", "while True: pass"]
+    procs = [subprocess.Popen(spin) for _ in range(cores or 1)]
+    try:
+        time.sleep(seconds)
+    finally:
+        for p in procs:
+            p.kill()
+        for p in procs:
+            p.wait()
+
+
+def busy_rows(
+    model: Path, defaults: Any, found: Sequence[Sequence[Call]], seconds: float
+) -> tuple[list[Measured], dict[str, int]]:
+    """The consultations answered right after a busy minute, twice: threads from the load
+    average (the rule before #36) and from the idle CPU sampled when the model loads."""
+    from llmpas.reasoning.backends.llamacpp import free_cores
+
+    out: list[Measured] = []
+    threads = {}
+    for name in ("busy-load", "busy-idle"):
+        busy(seconds)
+        n = free_cores(sample=lambda cpus: None) if name == "busy-load" else free_cores()
+        threads[name] = n
+        out += run_setting(name, model, replace(defaults, n_threads=n), found)[0]
+    return out, threads
+
+
 def run_bench(
-    model: Path, cassettes: Path, out: Path, limit: int | None, console: Console
+    model: Path,
+    cassettes: Path,
+    out: Path,
+    limit: int | None,
+    console: Console,
+    busy_seconds: float = 0.0,
+    scores: tuple[Path, int] | None = None,
 ) -> list[Path]:
-    from llmpas.reasoning.backends.llamacpp import LlamaSettings, settings_before
+    from llmpas.reasoning.backends.llamacpp import LlamaSettings, free_cores, settings_before
 
     found = consultations(cassettes)[:limit]
     if not found:
         raise ValueError(f"--cassettes {cassettes}: no recorded goals request")
-    defaults = LlamaSettings()
+    defaults = replace(LlamaSettings(), n_threads=free_cores())
     before = settings_before(defaults)
     measured: list[Measured] = []
     with console.status("before: the settings before #30 ..."):
@@ -381,6 +452,15 @@ def run_bench(
     measured += rows
     if rates is not None:
         measured += limit_row(rows, rates)
+    busy_threads: dict[str, int] = {}
+    if busy_seconds > 0:
+        with console.status(f"busy for {busy_seconds:g} s, then the model (twice) ..."):
+            more, busy_threads = busy_rows(model, defaults, found, busy_seconds)
+        measured += more
+    scored: list[ScoreCost] = []
+    if scores is not None and scores[1] > 0:
+        with console.status("scoring candidates ..."):
+            scored = score_costs(model, defaults, score_cases(scores[0], scores[1]))
     about = {
         "model": model.name,
         "cassettes": str(cassettes),
@@ -388,14 +468,147 @@ def run_bench(
         "calls": sum(len(c) for c in found),
         "threads": defaults.n_threads,
         "load": " / ".join(f"{x:.2f}" for x in os.getloadavg()),
+        "busy": busy_threads,
     }
     out.mkdir(parents=True, exist_ok=True)
+    text = markdown(measured, about) + score_markdown(scored)
     files = [
-        atomic_write(out / "llm.md", markdown(measured, about)),
+        atomic_write(out / "llm.md", text),
         write_csv(out / "llm.csv", [m.row() for m in measured]),
     ]
     plot(measured, out / "llm.png")
     return [*files, out / "llm.png"]
+
+
+# ------------------------------------------------------------------------- scoring's cost
+
+
+@dataclass(frozen=True)
+class ScoreCase:
+    """A recorded score request: the chat, the prefix and the candidates."""
+
+    name: str
+    messages: tuple[Message, ...]
+    prefix: str
+    choices: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class ScoreCost:
+    """One score request measured three ways in one model process."""
+
+    name: str
+    candidates: int
+    prompt_tokens: int
+    reused_seconds: float  # the worker's scoring: the shared prefix evaluated once
+    reused_evaluated: int
+    fresh_seconds: float  # nothing reused: each candidate with its whole prompt
+    fresh_evaluated: int
+    prior_seconds: float  # the prompt without the evidence (pmi's second scoring), reused
+    same_ranking: bool  # reused and fresh rank the candidates alike
+
+
+def score_cases(folder: Path, limit: int) -> list[ScoreCase]:
+    """The first ``limit`` recorded score requests of ``folder`` (by file name)."""
+    out = []
+    for path in sorted(folder.glob("*.json")):
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+            if data.get("kind") != "score":
+                continue
+            r = data["request"]
+            messages = tuple(Message(m["role"], m["content"]) for m in r["messages"])
+            case = ScoreCase(path.stem[:12], messages, str(r["prefix"]), tuple(r["choices"]))
+        except (OSError, ValueError, KeyError, TypeError) as err:
+            raise ValueError(f"{path}: not a cassette ({type(err).__name__}: {err})") from None
+        out.append(case)
+        if len(out) >= limit:
+            break
+    return out
+
+
+def strip_evidence(text: str) -> str:
+    """A recorded goals prompt without its evidence: the ``## Anomaly`` and ``## First look``
+    sections emptied (what ``pmi`` and ``prior`` score against)."""
+    import re
+
+    return re.sub(r"(## (?:Anomaly|First look)\n).*?(?=\n## |\Z)", r"\1", text, flags=re.S)
+
+
+def score_costs(model: Path, settings: Any, cases: Sequence[ScoreCase]) -> list[ScoreCost]:
+    from llmpas.reasoning.backends.llamacpp import LlamaCppBackend
+
+    out = []
+    with LlamaCppBackend(model, settings=settings) as llm:
+        for case in cases:
+            messages = [{"role": m.role, "content": m.content} for m in case.messages]
+            body: dict[str, Any] = {
+                "messages": messages,
+                "prefix": case.prefix,
+                "choices": list(case.choices),
+            }
+            # as the loop asks: the scoring, then (pmi) the prompt without the evidence; then
+            # the reference with nothing reused
+            reused, reused_s = llm.ask("score", body)
+            last = messages[-1]
+            blind = [*messages[:-1], {**last, "content": strip_evidence(last["content"])}]
+            _, prior_s = llm.ask("score", {**body, "messages": blind})
+            fresh, fresh_s = llm.ask("score", {**body, "fresh": True})
+            out.append(
+                ScoreCost(
+                    case.name,
+                    len(case.choices),
+                    int(reused.get("prompt_tokens") or 0),
+                    reused_s,
+                    int(reused.get("evaluated") or 0),
+                    fresh_s,
+                    int(fresh.get("evaluated") or 0),
+                    prior_s,
+                    _ranking(reused["logprobs"]) == _ranking(fresh["logprobs"]),
+                )
+            )
+            log.info("scored %s: %.1f s reused, %.1f s fresh", case.name, reused_s, fresh_s)
+    return out
+
+
+def _ranking(logprobs: Sequence[Sequence[float]]) -> list[int]:
+    means = [sum(lp) / len(lp) if lp else float("-inf") for lp in logprobs]
+    return sorted(range(len(means)), key=lambda i: (-means[i], i))
+
+
+def score_markdown(costs: Sequence[ScoreCost]) -> str:
+    """The cost per candidate of scoring, with and without the shared prefix's reuse."""
+    if not costs:
+        return ""
+    lines = [
+        "",
+        "## Scoring candidates: cost per candidate",
+        "",
+        "Recorded `flp-choose` score requests, each scored in one model process with the "
+        "shared prefix evaluated once (reused), with nothing reused (fresh), and the prompt "
+        "without the evidence (prior: `pmi` scores it too, `prior` only it).",
+        "",
+        "| request | candidates | prompt tokens | evaluated reused / fresh | s per candidate "
+        "reused | fresh | prior | pmi (reused + prior) | same ranking |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---|",
+    ]
+    for c in costs:
+        n = max(1, c.candidates)
+        lines.append(
+            f"| {c.name} | {c.candidates} | {c.prompt_tokens} | {c.reused_evaluated} / "
+            f"{c.fresh_evaluated} | {c.reused_seconds / n:.2f} | {c.fresh_seconds / n:.2f} | "
+            f"{c.prior_seconds / n:.2f} | {(c.reused_seconds + c.prior_seconds) / n:.2f} | "
+            f"{'yes' if c.same_ranking else 'no'} |"
+        )
+    n = sum(c.candidates for c in costs) or 1
+    reused = sum(c.reused_seconds for c in costs)
+    fresh = sum(c.fresh_seconds for c in costs)
+    lines += [
+        "",
+        f"- seconds per candidate: reused {reused / n:.2f}, fresh {fresh / n:.2f}"
+        + (f" (the reuse makes scoring {fresh / reused:.1f}x as fast)" if reused > 0 else ""),
+    ]
+    return "\n".join(lines) + "\n"
 
 
 # ------------------------------------------------------------------------------------ CLI
@@ -410,6 +623,21 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="recorded requests: a cassette folder (default: the main job's)",
     )
     p.add_argument("--consultations", type=positive_int, help="only the first N consultations")
+    p.add_argument(
+        "--busy",
+        type=float,
+        default=60.0,
+        help="seconds every core spins before each of the two rows started right after a busy "
+        "minute (0: leave them out)",
+    )
+    p.add_argument(
+        "--score-cassettes",
+        default=str(SCORE_CASSETTES),
+        help="recorded score requests (flp-choose's): a cassette folder",
+    )
+    p.add_argument(
+        "--scores", type=int, default=3, help="score requests measured (0: leave them out)"
+    )
     p.add_argument("--out", default="results/llm")
 
 
@@ -423,7 +651,20 @@ def command(args: argparse.Namespace, console: Console) -> int:
     model = Path(args.model) if args.model else model_path(DEFAULT_MODEL)
     if not model.is_file():
         raise LLMError(f"model file {model} not found: run `llmpas model install`")
-    files = run_bench(model, cassettes, Path(args.out), args.consultations, console)
+    if not args.busy >= 0 or args.scores < 0:
+        raise ValueError("--busy and --scores must be >= 0")
+    score_folder = Path(args.score_cassettes)
+    if args.scores and not score_folder.is_dir():
+        raise ValueError(f"--score-cassettes {score_folder}: no such folder")
+    files = run_bench(
+        model,
+        cassettes,
+        Path(args.out),
+        args.consultations,
+        console,
+        args.busy,
+        (score_folder, args.scores),
+    )
     console.print(f"wrote {', '.join(str(p) for p in files)}")
     return 0
 

@@ -64,9 +64,11 @@ from llmpas.experiments.jobs import (
 )
 from llmpas.experiments.replan import REPLAN, Replan
 from llmpas.experiments.suite import (
+    HALVES,
     SUITE_DIR,
     Category,
     SuiteTask,
+    development_half,
     judge,
     load_suite,
     load_task,
@@ -82,7 +84,10 @@ from llmpas.reasoning.methods import (
     DECODINGS,
     METHODS,
     PAPER_METHODS,
+    REGISTRY,
+    SCORINGS,
     MethodConfig,
+    controls,
     method_names,
 )
 from llmpas.system import LLMFor, LoopResult, SweepBudget
@@ -113,6 +118,7 @@ class PromptingConfig:
     oracle: bool = True
     replan: bool = True
     measures_llm: bool = False
+    half: str = ""  # development | rest: only that half of the tasks (suite.development_half)
     samples: int = 3
     temperature: float = 0.7
     seed: int = 0
@@ -134,14 +140,19 @@ class PromptingConfig:
     # places one object-loss consultation's sweep searches at most (1: one place a
     # consultation, the loop before #35's sweeps)
     sweep_places: int = SweepBudget().places
+    scoring: str = "mean"  # how the choosing methods score candidates (choose.Scoring)
 
     def __post_init__(self) -> None:
+        if self.scoring not in SCORINGS:
+            raise ValueError(f"scoring must be one of {', '.join(SCORINGS)}; got {self.scoring!r}")
         if not self.protocols:
             raise ValueError("protocols: give at least one (paper, assisted)")
         for spec in self.protocols:
             parse_assists(spec)  # ValueError naming an unknown assist
         if not 1 <= self.votes <= 16:
             raise ValueError(f"votes must be in [1, 16], got {self.votes}")
+        if self.half not in ("", *HALVES):
+            raise ValueError(f"half must be one of {', '.join(HALVES)}; got {self.half!r}")
         known = method_names()
         bad = [m for m in self.methods if m not in known]
         if bad:
@@ -205,11 +216,17 @@ def build_llm(spec: str, record: str | None = None) -> LLM | LLMFor:
 
 
 def loop_config(
-    config: PromptingConfig, method: str, sample: int, assists: Assists | None = None
+    config: PromptingConfig,
+    method: str,
+    sample: int,
+    assists: Assists | None = None,
+    task: str = "",
 ) -> LoopConfig:
     """The closed loop of one sample: the method's config with the sample's LLM seed, and the
-    protocol's assists (default: all)."""
+    protocol's assists (default: all); ``task``: the task's name, given to the methods that
+    seed an order with it (``candidates-shuffled``)."""
     is_oracle = method in (ORACLE, REPLAN)  # deterministic rows: the oracle's path
+    shuffled = not is_oracle and REGISTRY[method].chooser == "shuffled"
     return LoopConfig(
         assists=assists or Assists(),
         method=MethodConfig(
@@ -220,6 +237,8 @@ def loop_config(
             seed=config.seed + sample,
             max_tokens=config.max_tokens,
             votes=1 if is_oracle else config.votes,
+            scoring=config.scoring,
+            task=task if shuffled else "",
         ),
         max_rounds=config.max_rounds,
         sweep=SweepBudget(places=config.sweep_places),
@@ -455,8 +474,26 @@ def markdown_table(cells: Sequence[Cell], config: PromptingConfig) -> str:
             f"{_f(c.syntax_error_rate)} | {c.repairs:.2f} | {c.tokens:.0f} | {c.latency:.2f} | "
             f"{c.completion:.2f} | {c.false_done} |"
         )
+    lines += control_lines(methods, config)
     lines += ablation_lines(cells, config)
     return "\n".join(lines) + "\n"
+
+
+def control_lines(methods: Sequence[str], config: PromptingConfig) -> list[str]:
+    """Which row each method's row is compared with (a claim that the model helped holds only
+    against its control on the same tasks and seeds), and how candidates were scored."""
+    named = [m for m in methods if m in REGISTRY]
+    if not named:
+        return []
+    lines = ["", "Each row is compared with (its control first):", ""]
+    lines += ["| Method | compared with |", "|---|---|"]
+    for m in named:
+        present = [c for c in controls(m) if c in methods or (c == REPLAN and config.replan)]
+        shown = ", ".join(f"{c}" + ("" if c in present else " (not run here)") for c in controls(m))
+        lines.append(f"| {m} | {shown} |")
+    if any(REGISTRY[m].chooser in ("model", "prior") for m in named):
+        lines += ["", f"Candidates scored by `{config.scoring}` (`--scoring`)."]
+    return lines
 
 
 def ablation_lines(cells: Sequence[Cell], config: PromptingConfig) -> list[str]:
@@ -521,6 +558,17 @@ def rows(config: PromptingConfig) -> list[str]:
     return [row for row, _, _ in plan_rows(config)]
 
 
+def _loop_key(loop: LoopConfig) -> dict[str, Any]:
+    """The loop's config as its jobs' cache keys hold it: the method's ``scoring`` and
+    ``task`` left out at their defaults, so that the runs cached before they existed are kept."""
+    data = asdict(loop)
+    method = data["method"]
+    for name, default in (("scoring", "mean"), ("task", "")):
+        if method.get(name) == default:
+            del method[name]
+    return data
+
+
 def jobs_for(config: PromptingConfig, tasks: Sequence[SuiteTask]) -> list[Job[Payload]]:
     out = []
     data = {t.source: _content(t) for t in tasks}
@@ -530,7 +578,7 @@ def jobs_for(config: PromptingConfig, tasks: Sequence[SuiteTask]) -> list[Job[Pa
         record = None if is_fixed or config.record is None else str(config.record)
         for t in tasks:
             for k in range(1 if is_fixed else config.samples):
-                loop = loop_config(config, method, k, assists)
+                loop = loop_config(config, method, k, assists, t.name)
                 prompts = (
                     ""
                     if method == ORACLE
@@ -538,7 +586,7 @@ def jobs_for(config: PromptingConfig, tasks: Sequence[SuiteTask]) -> list[Job[Pa
                     if method == REPLAN
                     else _templates_digest()
                 )
-                digest = fingerprint([t.digest, asdict(loop), llm, record, prompts])
+                digest = fingerprint([t.digest, _loop_key(loop), llm, record, prompts])
                 key = f"{_safe(row)}/{_safe(llm)}/{t.name}/s{k}/{digest}"
                 keep = str(run_folder(config, key)) if config.keep_runs else None
                 payload = Payload(t.source, method, k, llm, record, loop, data[t.source], keep, row)
@@ -563,6 +611,10 @@ def run_prompting(config: PromptingConfig, console: Console | None = None) -> Re
         tasks = tuple(t for t in tasks if t.measures_llm)
         if not tasks:
             raise ValueError(f"{config.suite}: no task is marked measures_llm")
+    if config.half:
+        development = development_half(load_suite(config.suite))  # of the whole suite
+        keep = config.half == "development"
+        tasks = tuple(t for t in tasks if (t.name in development) == keep)
     jobs = jobs_for(config, tasks)
     if (
         config.methods
@@ -704,6 +756,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="only the tasks marked measures_llm (the replan baseline fails them)",
     )
     p.add_argument(
+        "--half",
+        choices=HALVES,
+        help="only the development half of the suite (per category, the first half by the "
+        "SHA-256 of the task names), or the rest",
+    )
+    p.add_argument(
         "--protocol",
         nargs="+",
         default=["assisted"],
@@ -741,6 +799,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--record", help="record the LLM's answers into this cassette folder")
     p.add_argument("--jobs", type=int, default=1, help="samples run in parallel processes")
     p.add_argument("--out", default="results/prompting", help="folder for tables, plot, cache")
+    p.add_argument(
+        "--scoring",
+        default="mean",
+        choices=SCORINGS,
+        help="how flp-choose and prior score candidates: mean, diff (the tokens where they "
+        "differ), pmi (against the prompt without the evidence); -words: as plain words",
+    )
     add_executor_arguments(p)
     p.add_argument(
         "--keep-runs",
@@ -765,6 +830,7 @@ def config_from_args(args: argparse.Namespace) -> PromptingConfig:
         oracle=not args.no_oracle,
         replan=not getattr(args, "no_replan", False),
         measures_llm=getattr(args, "measures_llm", False),
+        half=getattr(args, "half", None) or "",
         samples=args.samples,
         temperature=args.temperature,
         seed=args.seed,
@@ -783,6 +849,7 @@ def config_from_args(args: argparse.Namespace) -> PromptingConfig:
         protocols=tuple(getattr(args, "protocol", None) or ("assisted",)),
         ablation=getattr(args, "assists", False),
         votes=getattr(args, "votes", 1),
+        scoring=getattr(args, "scoring", "mean"),
     )
 
 

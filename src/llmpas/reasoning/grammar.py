@@ -81,18 +81,16 @@ def _atoms(rule: str, prefix: str, vocab: Vocabulary, exclude: set[Atom]) -> lis
             kept = [args for args in itertools.product(*map(sorted, allowed)) if args not in banned]
             if kept:
                 alternatives.append(f"{prefix}{i}")
-                text = (_literal("(" + " ".join((name, *args)) + ")") for args in kept)
+                text = (literal("(" + " ".join((name, *args)) + ")") for args in kept)
                 rules.append(f"{prefix}{i} ::= " + " | ".join(text))
             continue
         alternatives.append(f"{prefix}{i}")
-        parts = [_literal("(" + name)]
+        parts = [literal("(" + name)]
         for j in range(len(allowed)):
             parts += ['" "', f"{prefix}{i}-a{j + 1}"]
         rules.append(f"{prefix}{i} ::= " + " ".join([*parts, '")"']))
         for j, objects in enumerate(allowed, 1):
-            rules.append(
-                f"{prefix}{i}-a{j} ::= " + " | ".join(_literal(o) for o in sorted(objects))
-            )
+            rules.append(f"{prefix}{i}-a{j} ::= " + " | ".join(literal(o) for o in sorted(objects)))
     if not alternatives:
         return []
     return [f"{rule} ::= " + " | ".join(alternatives), *rules]
@@ -117,15 +115,15 @@ def skill_gbnf(calls: Mapping[str, Call], vocab: Vocabulary, reasoning: int = 20
     for i, name in enumerate(names):
         spec = calls[name]
         allowed = vocab.predicates.get(spec.predicate, ())
-        parts = [_literal(name + '("')]
+        parts = [literal(name + '("')]
         for j in range(len(spec.params)):
             if j:
-                parts.append(_literal('", "'))
+                parts.append(literal('", "'))
             parts.append(f"c{i}-a{j + 1}")
             where = [k for k, pos in enumerate(spec.positions) if pos == j]
             objects = allowed[where[0]] if where and where[0] < len(allowed) else everything
-            rules.append(f"c{i}-a{j + 1} ::= " + " | ".join(_literal(o) for o in sorted(objects)))
-        rules.insert(3 + i, f"c{i} ::= " + " ".join([*parts, _literal('")')]))
+            rules.append(f"c{i}-a{j + 1} ::= " + " | ".join(literal(o) for o in sorted(objects)))
+        rules.insert(3 + i, f"c{i} ::= " + " ".join([*parts, literal('")')]))
     return "\n".join(rules) + "\n"
 
 
@@ -137,7 +135,7 @@ def _optional_more(n: int) -> str:
     return text
 
 
-def _literal(text: str) -> str:
+def literal(text: str) -> str:
     """A GBNF string literal for ``text``."""
     out = []
     for c in text:

@@ -19,8 +19,10 @@
 
 - ``flp-choose`` — the model chooses instead of writing: the loop enumerates candidate goal sets
   (:mod:`llmpas.system.candidates`) and, after the first look, the model ranks them by their
-  likelihood as its answer (:mod:`llmpas.reasoning.choose`); controls that ask no model:
-  ``candidates-random`` (a seeded uniform order) and ``candidates-first`` (the enumeration's).
+  likelihood as its answer (:mod:`llmpas.reasoning.choose`); controls that carry no knowledge
+  of the anomaly: ``candidates-shuffled`` (a seeded random order per task), ``prior`` (the
+  model's score without the evidence), ``candidates-random`` (a uniform order seeded by the run
+  only) and ``candidates-first`` (the enumeration's, by predicate name: for reference).
 
 ``MethodConfig.votes`` > 1 adds self-consistency to any method: that many sampled answers, each
 checked by the validator (the loop's planner-backed check), the goal set most valid answers agree
@@ -58,6 +60,8 @@ from llmpas.reasoning.program import parse_program
 from llmpas.reasoning.tables import Call, Vocabulary
 
 DECODINGS = ("grammar", "schema", "none")
+CHOOSERS = ("model", "prior", "shuffled", "random", "first")  # see llmpas.reasoning.choose
+SCORINGS = tuple(f"{h}{r}" for h in ("mean", "diff", "pmi") for r in ("", "-words"))
 READERS = ("goals", "program", "skill")
 
 
@@ -72,12 +76,12 @@ class Method:
     first_look: str = ""
     reader: str = "goals"
     # how candidate goal sets the loop enumerates are ranked ("": the method writes goals;
-    # model | random | first: :mod:`llmpas.reasoning.choose`)
+    # model | prior | shuffled | random | first: :mod:`llmpas.reasoning.choose`)
     chooser: str = ""
 
     def __post_init__(self) -> None:
-        if self.chooser not in ("", "model", "random", "first"):
-            raise ValueError(f"method {self.name!r}: chooser must be model, random or first")
+        if self.chooser not in ("", *CHOOSERS):
+            raise ValueError(f"method {self.name!r}: chooser must be one of {', '.join(CHOOSERS)}")
         if not re.fullmatch(r"[a-z][a-z0-9-]*", self.name):
             raise ValueError(f"method name {self.name!r}: lower-case letters, digits and '-'")
         if self.reader not in READERS:
@@ -103,6 +107,8 @@ REGISTRY: Mapping[str, Method] = MappingProxyType(
             Method("flp-multi", "flp_multi_step2", first_look="flp_step1"),
             Method("flp-hypotheses", "flp_step2", first_look="flp_hypotheses_step1"),
             Method("flp-choose", "choose_step2", first_look="flp_step1", chooser="model"),
+            Method("candidates-shuffled", "choose_step2", chooser="shuffled"),
+            Method("prior", "choose_step2", chooser="prior"),
             Method("candidates-random", "choose_step2", chooser="random"),
             Method("candidates-first", "choose_step2", chooser="first"),
         )
@@ -115,6 +121,16 @@ PAPER_METHODS = ("flp", "flp-refer", "one-step", "progprompt", "inner-monologue"
 def method_names() -> tuple[str, ...]:
     """The registered methods: the choices of the command line's ``--method``/``--methods``."""
     return tuple(REGISTRY)
+
+
+def controls(name: str) -> tuple[str, ...]:
+    """The rows a method's row is compared with (the first: its main control): a method that
+    chooses by the model against the knowledge-free orders of the same candidates
+    (``candidates-shuffled``) and the model without the evidence (``prior``); every other
+    method, a control included, against ``replan`` (no reasoning)."""
+    if method(name).chooser == "model":
+        return ("candidates-shuffled", "prior", "replan")
+    return ("replan",)
 
 
 def method(name: str) -> Method:
@@ -238,8 +254,13 @@ class MethodConfig:
     repair_temperature: float = 0.7  # repairs sample: a greedy model would repeat its answer
     votes: int = 1  # self-consistency: sampled answers per consultation, each checked (1: off)
     vote_temperature: float = 0.7  # the temperature of the sampled answers (when votes > 1)
+    # how a choosing method scores its candidates (llmpas.reasoning.choose.Scoring)
+    scoring: str = "mean"
+    task: str = ""  # the task's name: seeds candidates-shuffled's order (never shown)
 
     def __post_init__(self) -> None:
+        if self.scoring not in SCORINGS:
+            raise ValueError(f"scoring must be one of {', '.join(SCORINGS)}; got {self.scoring!r}")
         if not 1 <= self.votes <= 16:
             raise ValueError(f"votes must be in [1, 16], got {self.votes}")
         if not 0 <= self.vote_temperature <= 2:

@@ -22,7 +22,8 @@ import tempfile
 import threading
 import time
 import weakref
-from dataclasses import dataclass, field, replace
+from collections.abc import Callable, Collection
+from dataclasses import dataclass, replace
 from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from typing import IO, Any
@@ -41,30 +42,93 @@ JOBS_VARIABLE = "LLMPAS_JOBS"  # how many jobs share this machine's cores (set b
 KV_STATES = 8  # KV states kept by default (~28 kB a token each for the 1.5B model)
 
 
-def free_cores(jobs: int | None = None) -> int:
-    """This process's share of the cores nobody else is using: the cores it may run on, less
-    the load of the last minute (another job's busy thread makes a llama.cpp thread wait for
-    it: with the other core busy, 2 threads generated 0.3 tokens/s where 1 made 12), divided
-    among ``jobs`` (default: ``$LLMPAS_JOBS``, else 1); at least 1."""
+IDLE_SAMPLE = 0.3  # seconds of /proc/stat the free cores are read from
+PROC_STAT = Path("/proc/stat")
+
+
+def _read_proc_stat() -> str:
+    return PROC_STAT.read_text(encoding="ascii", errors="replace")
+
+
+def idle_cores(
+    cpus: Collection[int],
+    read: Callable[[], str] = _read_proc_stat,
+    sleep: Callable[[float], None] = time.sleep,
+    seconds: float = IDLE_SAMPLE,
+) -> float | None:
+    """How many of ``cpus`` were idle over the last ``seconds`` (a fraction of each, summed):
+    two readings of the kernel's per-CPU time counters (``/proc/stat``, idle and iowait against
+    all), ``seconds`` apart. What is free now, where the 1-minute load average still counts a
+    job that ended half a minute ago (started right after one, the offline model got one thread
+    and took 57 s of LLM time where a quiet machine took 40). None where the counters cannot be
+    read (not Linux) or did not move."""
+    try:
+        before = _cpu_times(read())
+        sleep(seconds)
+        after = _cpu_times(read())
+    except (OSError, ValueError):
+        return None
+    idle = 0.0
+    counted = 0
+    for cpu in cpus:
+        if cpu not in before or cpu not in after:
+            continue
+        (idle0, total0), (idle1, total1) = before[cpu], after[cpu]
+        if total1 > total0:
+            idle += min(1.0, max(0.0, (idle1 - idle0) / (total1 - total0)))
+            counted += 1
+    return idle if counted else None
+
+
+def _cpu_times(text: str) -> dict[int, tuple[int, int]]:
+    """Per CPU of ``/proc/stat``: (idle + iowait, all) jiffies."""
+    out = {}
+    for line in text.splitlines():
+        name, *fields = line.split() or [""]
+        if not name.startswith("cpu") or name == "cpu" or not fields:
+            continue
+        ticks = [int(f) for f in fields[:8]]  # guest times are in user's already
+        if len(ticks) < 4:
+            raise ValueError(f"/proc/stat: short line {line!r}")
+        out[int(name[3:])] = (ticks[3] + (ticks[4] if len(ticks) > 4 else 0), sum(ticks))
+    return out
+
+
+def free_cores(
+    jobs: int | None = None, sample: Callable[[Collection[int]], float | None] = idle_cores
+) -> int:
+    """This process's share of the cores nobody else is using: the idle share of the cores it
+    may run on, sampled now (:func:`idle_cores`; where it cannot be read, the cores less the
+    load of the last minute), divided among ``jobs`` (default: ``$LLMPAS_JOBS``, else 1); at
+    least 1. Another job's busy thread makes a llama.cpp thread wait for it: with the other
+    core busy, 2 threads generated 0.3 tokens/s where 1 made 12."""
     if jobs is None:
         value = os.environ.get(JOBS_VARIABLE, "")
         jobs = int(value) if value.isdigit() and int(value) > 0 else 1
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    cores = cores or 1
-    busy = os.getloadavg()[0] if hasattr(os, "getloadavg") else 0.0
-    return max(1, int(cores - busy + 0.5) // max(1, jobs))
+    cpus = (
+        set(os.sched_getaffinity(0))
+        if hasattr(os, "sched_getaffinity")
+        else set(range(os.cpu_count() or 1))
+    )
+    cores = len(cpus) or 1
+    idle = sample(cpus)
+    if idle is None:
+        busy = os.getloadavg()[0] if hasattr(os, "getloadavg") else 0.0
+        idle = cores - busy
+    return max(1, int(min(cores, idle) + 0.5) // max(1, jobs))
 
 
 @dataclass(frozen=True)
 class LlamaSettings:
     """How the worker loads the model. ``extra_bufts``: let llama.cpp repack weights into its
     extra buffer types (AMX, ...); off by default, since the AMX path crashes on some CPUs.
-    ``n_threads``: default :func:`free_cores` when the settings are made. ``kv_states``: KV
+    ``n_threads``: 0 (the default) decides when the model loads, from the cores idle then
+    (:func:`free_cores`); a restarted worker decides again. ``kv_states``: KV
     states kept across answers, so that no prompt prefix is evaluated twice (0: only the state
     of the last answer, as llama-cpp-python keeps it)."""
 
     n_ctx: int = 4096
-    n_threads: int = field(default_factory=free_cores)
+    n_threads: int = 0
     seed: int = 0
     extra_bufts: bool = False
     kv_states: int = KV_STATES
@@ -72,8 +136,10 @@ class LlamaSettings:
     timeout: float = 600.0  # seconds for one answer
 
     def __post_init__(self) -> None:
-        if self.n_ctx < 1 or self.n_threads < 1:
-            raise ValueError(f"n_ctx, n_threads must be >= 1, got {self.n_ctx}, {self.n_threads}")
+        if self.n_ctx < 1 or self.n_threads < 0:
+            raise ValueError(
+                f"n_ctx must be >= 1, n_threads >= 0, got {self.n_ctx}, {self.n_threads}"
+            )
         if self.kv_states < 0:
             raise ValueError(f"kv_states must be >= 0, got {self.kv_states}")
         if not (self.load_timeout > 0 and self.timeout > 0):
@@ -89,8 +155,9 @@ def settings_before(settings: LlamaSettings | None = None) -> LlamaSettings:
 class LlamaCppBackend:
     """A local chat model; ``request.grammar`` (GBNF) constrains decoding exactly.
 
-    ``n_threads`` defaults to the free cores (:func:`free_cores`): with 2 threads generation
-    collapses when the other core is busy. A response's ``meta`` says how many prompt tokens
+    ``n_threads`` defaults to the cores free when the model loads (:func:`free_cores`; the
+    number used is :attr:`threads`): with 2 threads generation collapses when the other core
+    is busy. A response's ``meta`` says how many prompt tokens
     were evaluated and reused, and the seconds of the prompt and of the whole answer.
     """
 
@@ -117,6 +184,7 @@ class LlamaCppBackend:
         self._lock = threading.Lock()
         self._worker: _Worker | None = None
         self._requests = 0
+        self.threads = self.settings.n_threads  # the worker's threads (decided when it loads)
         self._start()
 
     def __repr__(self) -> str:
@@ -200,11 +268,12 @@ class LlamaCppBackend:
     def _start(self) -> _Worker:
         self.close()
         start = time.perf_counter()
+        self.threads = self.settings.n_threads or free_cores()
         worker = _Worker(self.name)
         load = {
             "model_path": str(self.model_path),
             "n_ctx": self.settings.n_ctx,
-            "n_threads": self.settings.n_threads,
+            "n_threads": self.threads,
             "seed": self.settings.seed,
             "extra_bufts": self.settings.extra_bufts,
             "kv_states": self.settings.kv_states,
@@ -218,7 +287,8 @@ class LlamaCppBackend:
             worker.stop()
             raise LLMError(f"cannot load {self.model_path}: {answer['error']}")
         self._worker = worker
-        log.info("loaded %s in %.2f s", self.model_path.name, time.perf_counter() - start)
+        seconds = time.perf_counter() - start
+        log.info("loaded %s in %.2f s, %d threads", self.model_path.name, seconds, self.threads)
         return worker
 
 

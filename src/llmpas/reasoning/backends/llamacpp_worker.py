@@ -246,11 +246,13 @@ class Meter:
     prompt_evaluated: int = 0
     prompt_seconds: float = 0.0
     evaluations: int = 0
+    tokens: int = 0  # evaluated in all
 
     def evaluated(self, tokens: int, seconds: float) -> None:
         if self.evaluations == 0:
             self.prompt_evaluated, self.prompt_seconds = tokens, seconds
         self.evaluations += 1
+        self.tokens += tokens
 
 
 @contextmanager
@@ -362,18 +364,29 @@ def _score(llama: Any, ask: dict[str, Any]) -> dict[str, Any]:
     the same context and the same tokens, are taken from the choice before). A choice's own
     tokens are decoded one at a time: on a CPU without fast batched kernels a small batch costs
     far more than its tokens one by one. Scores can differ in the last digits with what the
-    cache held (batching changes the arithmetic): recorded scores replay exactly."""
+    cache held (batching changes the arithmetic): recorded scores replay exactly.
+
+    ``fresh`` (the benchmark's reference): nothing reused, each choice evaluated with its whole
+    prompt from an empty context. The answer says how many tokens were evaluated."""
     prompt = _chat_prompt(llama, ask["messages"]) + str(ask.get("prefix", ""))
+    fresh = bool(ask.get("fresh", False))
     base = _tokens(llama, prompt)
     known: dict[int, float] = {}  # position -> log p(token there | the cached tokens before)
     out = []
-    for choice in ask["choices"]:
-        tokens = _tokens(llama, prompt + str(choice))
-        start = common_prefix(base, tokens)
-        if start < 1 or start >= len(tokens):
-            raise ValueError(f"choice {choice!r} adds no token to the prompt")
-        out.append(_logprobs(llama, tokens, start, known))
-    return {"logprobs": out, "prompt_tokens": len(base)}
+    meter = llama.meter = Meter()
+    try:
+        for choice in ask["choices"]:
+            tokens = _tokens(llama, prompt + str(choice))
+            start = common_prefix(base, tokens)
+            if start < 1 or start >= len(tokens):
+                raise ValueError(f"choice {choice!r} adds no token to the prompt")
+            if fresh:
+                known.clear()
+                llama.n_tokens = 0
+            out.append(_logprobs(llama, tokens, start, known))
+    finally:
+        llama.meter = None
+    return {"logprobs": out, "prompt_tokens": len(base), "evaluated": meter.tokens}
 
 
 def _logprobs(llama: Any, tokens: list[int], start: int, known: dict[int, float]) -> list[float]:

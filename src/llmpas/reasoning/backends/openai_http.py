@@ -10,6 +10,18 @@ raw JSON is checked strictly here. Whatever the server does (non-JSON, invalid U
 ends), :meth:`OpenAIBackend.complete` returns a :class:`Response` or raises an
 :class:`LLMServerError` with one line naming the server (``host:port`` and the model); the API
 key is redacted from every text that leaves this module (answers and error bodies included).
+
+**Scores** (:meth:`OpenAIBackend.score`, what ``flp-choose`` ranks by): for each choice one chat
+request whose answer a GBNF grammar fixes to the prefix and the choice (``grammar``, which
+``llama_cpp.server`` reads from the body), with ``logprobs``: the server evaluates the shared
+prompt once and keeps it (its own prefix reuse), each choice costs its own tokens, and the
+answer's token log-probabilities are the model's (the grammar only picks the token; llama.cpp
+reports the log-probability before it). The tokens wholly inside the prefix are left out, as the
+in-process scorer does. A server that does not honour the grammar (its answer is not the choice),
+returns no log-probabilities, or refuses the request (HTTP 4xx) cannot score:
+:class:`ScoringUnsupported` (the caller asks for a numbered choice) and it is not asked again.
+(The completions endpoint's ``echo`` would score the prompt's own tokens, but llama-cpp-python
+0.3 misaligns them for a model without a BOS token, as Qwen2.5 and SmolLM2 are.)
 """
 
 from __future__ import annotations
@@ -23,7 +35,17 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from llmpas.reasoning.llm import Fault, LLMError, LLMServerError, Request, Response
+from llmpas.reasoning.grammar import literal as gbnf_literal
+from llmpas.reasoning.llm import (
+    Fault,
+    LLMError,
+    LLMServerError,
+    Request,
+    Response,
+    ScoreRequest,
+    Scores,
+    ScoringUnsupported,
+)
 from llmpas.safetext import one_line, redact
 
 log = logging.getLogger(__name__)
@@ -111,6 +133,8 @@ class OpenAIBackend:
         self.base_url = self.endpoint.url
         self.server = f"{self.name} at {self.endpoint.hostport}"
         self._client = _sdk_client(self.base_url, self._key, timeout, max_bytes)
+        self._cannot_score = ""  # why this server cannot score ("": not known to fail)
+        self._no_tokenizer = False  # the server has no /extras/tokenize (llama_cpp.server's)
 
     def __repr__(self) -> str:  # no key in here, ever
         return f"OpenAIBackend(model={self.model!r}, base_url={self.base_url!r})"
@@ -136,23 +160,141 @@ class OpenAIBackend:
                 self._sleep(self.backoff * 2 ** (attempt - 1))
         raise AssertionError("unreachable")  # pragma: no cover
 
+    def score(self, request: ScoreRequest) -> Scores:
+        """Each choice's token log-probabilities after the chat and ``request.prefix`` (see the
+        module's doc); :class:`ScoringUnsupported` when this server cannot give them."""
+        if self._cannot_score:
+            raise ScoringUnsupported(f"{self.server}: {self._cannot_score}")
+        logprobs: list[tuple[float, ...]] = []
+        prompt_tokens = 0
+        start = time.perf_counter()
+        budget = self.timeout * SCORE_BUDGET
+        for choice in request.choices:
+            if time.perf_counter() - start > budget:
+                why = f"scoring {len(request.choices)} choices took over {budget:g} s"
+                raise self._fail(Fault.TIMEOUT, why)
+            try:
+                lp, prompt_tokens = self._score_one(request, choice)
+            except _NoScores as err:
+                self._cannot_score = str(err)
+                raise ScoringUnsupported(f"{self.server}: {err}") from None
+            logprobs.append(lp)
+        return Scores(tuple(logprobs), self.name, prompt_tokens, time.perf_counter() - start)
+
+    def _score_one(self, request: ScoreRequest, choice: str) -> tuple[tuple[float, ...], int]:
+        text = request.prefix + choice
+        tokens = self._canonical(request.prefix, text)
+        if tokens is not None:  # the model's own tokens of the text, forced one by one
+            forced_tokens, skip = tokens
+            grammar = "root ::= " + " ".join(f"<[{t}]>" for t in forced_tokens) + "\n"
+            bound = len(forced_tokens) + 1
+        else:  # the text, tokens as the sampler picks them
+            grammar, skip, bound = f"root ::= {gbnf_literal(text)}\n", -1, len(text.encode()) + 4
+        forced = Request(
+            request.messages,
+            temperature=0.0,
+            max_tokens=min(bound, MAX_SCORED_TOKENS),
+            grammar=grammar,
+        )
+        body = {**self.create_kwargs(forced), "logprobs": True, "top_logprobs": 1}
+        try:
+            data, _ = self._post(body)
+        except LLMServerError as err:
+            if err.status is not None and 400 <= err.status < 500 and err.status != 429:
+                raise _NoScores(f"the server refused a scoring request ({err.reason})") from None
+            raise
+        completion = self._json(data)
+        try:
+            if skip >= 0:
+                return _token_logprobs(completion, text, skip, len(forced_tokens))
+            return _choice_logprobs(completion, text, len(request.prefix))
+        except _Shape as err:
+            raise self._fail(Fault.MALFORMED, f"not a scored chat completion: {err}") from None
+
+    def _canonical(self, prefix: str, text: str) -> tuple[list[int], int] | None:
+        """``text``'s tokens as the model's tokenizer writes them (``llama_cpp.server``'s
+        ``/extras/tokenize``; a BOS it adds left out) and how many of them ``prefix`` alone
+        shares; None where the server has no tokenizer endpoint (then the grammar forces the
+        text and the sampler picks its tokens, which may be another segmentation)."""
+        if self._no_tokenizer:
+            return None
+        try:
+            empty, head, full = (self._tokenize(t) for t in ("", prefix, text))
+        except (LLMServerError, _Shape):
+            self._no_tokenizer = True
+            return None
+        bos = len(empty) if empty == full[: len(empty)] else 0
+        full, head = full[bos:], head[bos:]
+        shared = 0
+        while shared < min(len(head), len(full) - 1) and head[shared] == full[shared]:
+            shared += 1
+        return (full, shared) if full and len(full) <= MAX_SCORED_TOKENS else None
+
+    def _tokenize(self, text: str) -> list[int]:
+        import httpx2
+        import openai
+
+        url = f"{self.endpoint.scheme}://{self.endpoint.hostport}/extras/tokenize"
+        body = json.dumps({"model": self.model, "input": text}).encode()
+        try:
+            answer = self._client.post(url, cast_to=httpx2.Response, content=body)
+        except openai.APIStatusError as err:
+            raise self._fail(Fault.HTTP, f"HTTP {err.status_code}", err.status_code) from None
+        except openai.APIConnectionError as err:
+            raise self._transport_failure(err) from None
+        tokens = _field(self._json(answer.content), "tokens", list, "tokenize")
+        if not all(
+            isinstance(t, int) and not isinstance(t, bool) and 0 <= t < 1 << 31 for t in tokens
+        ):
+            raise _Shape("tokenize.tokens are not token ids")
+        return tokens
+
+    def _post(self, body: dict[str, Any]) -> tuple[bytes, float]:
+        """One POST of ``body`` to ``/chat/completions`` (retried as :meth:`complete` is): the
+        answer's raw bytes and the seconds it took."""
+        attempts = self.max_retries + 1
+        for attempt in range(1, attempts + 1):
+            try:
+                return self._send(body)
+            except LLMServerError as err:
+                retry = err.fault in RETRYABLE or (err.status or 0) >= 500 or err.status == 429
+                if not retry or attempt == attempts:
+                    raise
+                self._sleep(self.backoff * 2 ** (attempt - 1))
+        raise AssertionError("unreachable")  # pragma: no cover
+
+    def _send(self, kwargs: dict[str, Any]) -> tuple[bytes, float]:
+        import httpx2
+        import openai
+
+        body = json.dumps(kwargs).encode()
+        start = time.perf_counter()
+        try:
+            answer = self._client.post("/chat/completions", cast_to=httpx2.Response, content=body)
+        except openai.APIStatusError as err:
+            why = f"HTTP {err.status_code}{_error_detail(err.response.content)}"
+            raise self._fail(Fault.HTTP, why, err.status_code) from None
+        except openai.APIConnectionError as err:
+            raise self._transport_failure(err) from None
+        return answer.content, time.perf_counter() - start
+
+    def _json(self, data: bytes) -> Any:
+        try:
+            text = data.decode("utf-8")
+        except UnicodeDecodeError as err:
+            raise self._fail(Fault.MALFORMED, f"answer is not UTF-8 (byte {err.start})") from None
+        try:
+            return json.loads(text)
+        except (ValueError, RecursionError) as err:
+            why = getattr(err, "msg", None) or type(err).__name__
+            raise self._fail(Fault.MALFORMED, f"answer is not JSON ({why})") from None
+
     def _fail(self, fault: Fault, reason: str, status: int | None = None) -> LLMServerError:
         return LLMServerError(self.server, fault, one_line(self.redact(reason)), status)
 
     def _attempt(self, request: Request) -> Response:
-        import httpx2
-        import openai
-
-        body = json.dumps(self.create_kwargs(request)).encode()  # ASCII: lone surrogates escaped
-        start = time.perf_counter()
-        try:
-            answer = self._client.post("/chat/completions", cast_to=httpx2.Response, content=body)
-        except openai.APIStatusError as err:  # its body was read through the size cap
-            why = f"HTTP {err.status_code}{_error_detail(err.response.content)}"
-            raise self._fail(Fault.HTTP, why, err.status_code) from None
-        except openai.APIConnectionError as err:  # APITimeoutError included
-            raise self._transport_failure(err) from None
-        return self._response(answer.content, time.perf_counter() - start)
+        data, seconds = self._send(self.create_kwargs(request))  # ASCII: surrogates escaped
+        return self._response(data, seconds)
 
     def _transport_failure(self, err: Exception) -> LLMServerError:
         from httpx2 import TimeoutException
@@ -168,15 +310,7 @@ class OpenAIBackend:
         return self._fail(Fault.CONNECTION, f"connection failed: {why}")
 
     def _response(self, data: bytes, latency: float) -> Response:
-        try:
-            text = data.decode("utf-8")
-        except UnicodeDecodeError as err:
-            raise self._fail(Fault.MALFORMED, f"answer is not UTF-8 (byte {err.start})") from None
-        try:
-            completion = json.loads(text)
-        except (ValueError, RecursionError) as err:  # ValueError: also 5000-digit numbers
-            why = getattr(err, "msg", None) or type(err).__name__
-            raise self._fail(Fault.MALFORMED, f"answer is not JSON ({why})") from None
+        completion = self._json(data)  # ValueError caught there: also 5000-digit numbers
         try:
             return _to_response(completion, self.model, latency, self.redact)
         except _Shape as err:
@@ -229,6 +363,76 @@ def _resolve_key(api_key: str | None, base_url: str | None) -> str:
 
 class _Shape(ValueError):
     """The answer is JSON but not a chat completion."""
+
+
+class _NoScores(ValueError):
+    """The server answered but cannot score (no log-probabilities, the grammar ignored)."""
+
+
+SCORE_BUDGET = 4  # one score request's choices together: at most this many request timeouts
+MAX_SCORED_TOKENS = 512  # the tokens of one scored choice, at most (a goal set is ~10-60)
+
+
+def _token_logprobs(
+    completion: Any, text: str, skip: int, count: int
+) -> tuple[tuple[float, ...], int]:
+    """The log-probabilities of the answer's tokens after its first ``skip`` (the prefix's),
+    when the answer is ``text`` in ``count`` tokens (each forced by the grammar)."""
+    choices = _field(completion, "choices", list, "answer")
+    if not choices:
+        raise _Shape("answer.choices is empty")
+    message = _field(choices[0], "message", dict, "answer.choices[0]")
+    if message.get("content") != text:
+        raise _NoScores("its answer is not the choice it was asked to score (grammar ignored?)")
+    logprobs = choices[0].get("logprobs")
+    content = logprobs.get("content") if isinstance(logprobs, dict) else None
+    if not isinstance(content, list) or len(content) < count:
+        raise _NoScores("it returns no log-probability for each token of the choice")
+    out = [_logprob(item, i) for i, item in enumerate(content[:count])]
+    return tuple(out[skip:]), _tokens(completion.get("usage"), "prompt_tokens")
+
+
+def _logprob(item: Any, i: int) -> float:
+    where = f"answer.choices[0].logprobs.content[{i}]"
+    if not isinstance(item, dict):
+        raise _Shape(f"{where} is not an object")
+    value: Any = item.get("logprob")
+    ok = isinstance(value, int | float) and not isinstance(value, bool)
+    if not ok or not -1e6 < float(value) <= 1e-3:  # float32 rounding: a hair above 0
+        raise _Shape(f"{where}.logprob is {_kind(value)}")
+    return float(value)
+
+
+def _choice_logprobs(completion: Any, text: str, skip: int) -> tuple[tuple[float, ...], int]:
+    """The log-probabilities of the answer's tokens that end after its first ``skip``
+    characters (the prefix), checking that the answer is ``text``; and the prompt's tokens.
+    :class:`_NoScores` when the server answered otherwise (no log-probabilities, another text)."""
+    choices = _field(completion, "choices", list, "answer")
+    if not choices:
+        raise _Shape("answer.choices is empty")
+    message = _field(choices[0], "message", dict, "answer.choices[0]")
+    if message.get("content") != text:
+        raise _NoScores("its answer is not the choice it was asked to score (grammar ignored?)")
+    logprobs = choices[0].get("logprobs")
+    content = logprobs.get("content") if isinstance(logprobs, dict) else None
+    if not isinstance(content, list) or not content:
+        raise _NoScores("it returns no token log-probabilities")
+    out: list[float] = []
+    end = 0
+    for i, item in enumerate(content[: MAX_SCORED_TOKENS + 8]):
+        token = _field(item, "token", str, f"answer.choices[0].logprobs.content[{i}]")
+        value = item.get("logprob")
+        ok = isinstance(value, int | float) and not isinstance(value, bool)
+        if not ok or not -1e6 < float(value) <= 1e-3:  # float32 rounding: a hair above 0
+            raise _Shape(f"answer.choices[0].logprobs.content[{i}].logprob is {_kind(value)}")
+        start, end = end, end + len(token)
+        if end > skip and start < len(text):
+            out.append(float(value))
+    spelled = "".join(str(item.get("token")) for item in content[: MAX_SCORED_TOKENS + 8])
+    if not spelled.startswith(text) or not out:
+        raise _NoScores("its log-probabilities' tokens do not spell the choice")
+    usage = completion.get("usage")
+    return tuple(out), _tokens(usage, "prompt_tokens")
 
 
 def _field(obj: Any, key: str, kind: type, where: str) -> Any:
