@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import json
 import logging
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -32,6 +31,7 @@ from llmpas.worlds.pybullet.values import ArmGoal, BaseConf, ObjectPose
 from llmpas.worlds.ros2 import convert
 from llmpas.worlds.ros2.node import ACTIONS, FJT, GRIPPER, LOOK, NAV, SKILL, STATE, action_names
 from llmpas.worlds.ros2.profile import RobotProfile
+from llmpas.worlds.ros2.spin import Spinner
 
 log = logging.getLogger(__name__)
 
@@ -177,7 +177,6 @@ class RosRobot:
         from llmpas_interfaces.srv import GetSceneState
         from nav2_msgs.action import NavigateToPose
         from rclpy.action import ActionClient
-        from rclpy.executors import SingleThreadedExecutor
 
         self.scene = scene  # the planning scene, mirrored from the robot after every goal
         self.timeouts = timeouts or Timeouts()
@@ -196,15 +195,7 @@ class RosRobot:
         names = action_names(self.profile)
         self.clients = {n: ActionClient(self.node, t, names[n]) for n, t in self.types.items()}
         self.state_client = self.node.create_client(GetSceneState, self.profile.actions.state)
-        self.executor = SingleThreadedExecutor(context=context)
-        self.executor.add_node(self.node)
-        # rclpy files a request's future only after sending it: a reply the spinner takes in
-        # between is dropped ("Ignoring unexpected goal response"), the goal never answers. So
-        # requests are sent (request()) and replies taken (_spin) under one lock.
-        self.lock = threading.Lock()
-        self.stopping = threading.Event()
-        self.spinner = threading.Thread(target=self._spin, daemon=True, name="ros2-spin")
-        self.spinner.start()
+        self.spinner = Spinner(self.node, context)  # requests and replies under one lock
         self.believed: tuple[float, float, float] = scene.config.base
         self.log: list[str] = []
         self.frames: list[Any] = []  # the run folder's media: none (the robot keeps its own)
@@ -212,27 +203,13 @@ class RosRobot:
         self.clock: Callable[[], tuple[int, int]] = lambda: (0, 0)
         self.goals = 0
 
-    def _spin(self) -> None:
-        try:
-            while not self.stopping.is_set():
-                with self.lock:
-                    self.executor.spin_once(timeout_sec=0.005)
-                time.sleep(0.0005)  # a sender waiting for the lock gets it
-        except Exception:  # the context was shut down under it
-            log.debug("ROS 2 spinner stopped", exc_info=True)
-
     def request(self, send: Callable[[], T]) -> T:
         """``send()`` (a goal, result, cancel or service request) while no reply is taken."""
-        with self.lock:
-            return send()
+        return self.spinner.request(send)
 
     def shutdown(self) -> None:
         """Stop spinning; the node goes with its context (never blocks on a busy spinner)."""
-        self.stopping.set()
-        self.spinner.join(timeout=2.0)
-        self.executor.shutdown(timeout_sec=2.0)
-        if not self.spinner.is_alive():
-            self.node.destroy_node()
+        self.spinner.shutdown()
 
     # ------------------------------------------------------------------ connection
 

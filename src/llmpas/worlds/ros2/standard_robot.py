@@ -40,6 +40,7 @@ from llmpas.worlds.ros2 import convert
 from llmpas.worlds.ros2.client import RobotUnavailableError, Timeouts
 from llmpas.worlds.ros2.node import FJT, GRIPPER, NAV, STANDARD, action_names
 from llmpas.worlds.ros2.profile import CAMERAS, Place, RobotProfile
+from llmpas.worlds.ros2.spin import Spinner
 from llmpas.worlds.ros2.standard import nav2_reason
 from llmpas.worlds.ros2.tf import TfBuffer, TfError, Transform
 
@@ -213,7 +214,6 @@ class StandardRobot:
         from control_msgs.action import FollowJointTrajectory, GripperCommand
         from nav2_msgs.action import NavigateToPose
         from rclpy.action import ActionClient
-        from rclpy.executors import SingleThreadedExecutor
         from sensor_msgs.msg import JointState
         from std_msgs.msg import String
         from tf2_msgs.msg import TFMessage
@@ -250,15 +250,7 @@ class StandardRobot:
             self.subscriptions.append(
                 sub(Detection3DArray, topic.name, self._detector(key), topic.qos.rclpy())
             )
-        self.executor = SingleThreadedExecutor(context=context)
-        self.executor.add_node(self.node)
-        # rclpy files a request's future only after sending it: a reply the spinner takes in
-        # between is dropped ("Ignoring unexpected goal response") and the goal never answers;
-        # so requests are sent (request()) and replies taken (_spin) under one lock
-        self.spin_lock = threading.Lock()
-        self.stopping = threading.Event()
-        self.spinner = threading.Thread(target=self._spin, daemon=True, name="ros2-spin")
-        self.spinner.start()
+        self.spinner = Spinner(self.node, context)  # requests and replies under one lock
         self.skills = RecordingSkills(scene, rng)
         self.believed: tuple[float, float, float] = scene.config.base
         self.log: list[str] = []
@@ -273,26 +265,12 @@ class StandardRobot:
 
     # ------------------------------------------------------------------ the graph
 
-    def _spin(self) -> None:
-        try:
-            while not self.stopping.is_set():
-                with self.spin_lock:
-                    self.executor.spin_once(timeout_sec=0.005)
-                time.sleep(0.0005)  # a sender waiting for the lock gets it
-        except Exception:
-            log.debug("ROS 2 spinner stopped", exc_info=True)
-
     def request(self, send: Callable[[], T]) -> T:
         """``send()`` (a goal, result or cancel request) while no reply is being taken."""
-        with self.spin_lock:
-            return send()
+        return self.spinner.request(send)
 
     def shutdown(self) -> None:
-        self.stopping.set()
-        self.spinner.join(timeout=2.0)
-        self.executor.shutdown(timeout_sec=2.0)
-        if not self.spinner.is_alive():
-            self.node.destroy_node()
+        self.spinner.shutdown()
 
     def _tf(self, msg: Any, static: bool) -> None:
         for t in msg.transforms:
