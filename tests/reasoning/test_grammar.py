@@ -242,7 +242,7 @@ def test_no_exclusion_gives_the_same_grammar() -> None:
 
 
 def test_gbnf_escapes_string_literals() -> None:
-    from llmpas.reasoning.grammar import _literal
+    from llmpas.reasoning.grammar import literal as _literal
 
     assert _literal('a"b\\c') == r'"a\"b\\c"'
     assert _literal("x\ny\t\u00e9") == r'"x\ny\t\u00e9"'
