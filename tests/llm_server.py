@@ -1,8 +1,9 @@
 """A scriptable OpenAI-compatible server on 127.0.0.1 for tests, able to misbehave.
 
 It answers ``POST .../chat/completions`` with the next scripted :class:`Reply` (the last one
-repeats; any other path: 404): any status and body (a body may be a function of the request's headers, e.g. a 401
-echoing the ``Authorization`` header), sent after a delay or trickled byte by byte. Everything
+repeats; any other path: 404): any status and body (a body may be a function of the request's
+headers, e.g. a 401 echoing the ``Authorization`` header), sent after a delay or trickled byte by
+byte. Everything
 is bounded: waits end when the server stops, request bodies are capped, threads are daemons.
 """
 
