@@ -387,11 +387,12 @@ def _suite_task(world: str, path: str) -> tuple[Any, str | None]:
     as it is (no intent)."""
     if world != "household" or not path.endswith(".toml"):
         return path, None
-    import tomllib
+    from llmpas.errors import InputError
+    from llmpas.inputs import read_toml
 
-    try:
-        is_task = "judge" in tomllib.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+    try:  # bounded, regular files only (a FIFO or a device is the scenario reader's to name)
+        is_task = "judge" in read_toml(path, "scenario")
+    except InputError:
         return path, None  # the scenario reader reports it, naming the file and place
     if not is_task:
         return path, None

@@ -111,7 +111,7 @@ class Builder(PlanBuilder):
 
         return look
 
-    def forget_object(self, belief: Belief, obj: str) -> None:
+    def forget_object(self, belief: Belief, obj: str) -> None:  # the protocol before places
         belief.facts -= {a for a in belief.facts if a.predicate == "in" and a.args[0] == obj}
 
 

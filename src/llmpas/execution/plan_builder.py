@@ -11,6 +11,7 @@ predicate, an action or a stream of any particular domain.
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -228,13 +229,21 @@ class PlanBuilder:
                 a for a in self.plan.certified if a.predicate in self.adopted and name in a.args
             }
 
+    def _forget_at(self, belief: Belief, obj: str, place: str | None) -> None:
+        """:meth:`forget_object` with the place, or without it for a world written before the
+        place was passed (``forget_object(belief, obj)``: it forgets the object wherever)."""
+        if len(inspect.signature(self.forget_object).parameters) >= 3:
+            self.forget_object(belief, obj, place)
+        else:
+            self.forget_object(belief, obj)  # type: ignore[call-arg]
+
     def _forget(self, step: PlanStep) -> Callable[[Failure, Context], None]:
         def forget(failure: Failure, ctx: Context) -> None:
             if failure.constraint.name == self.detection and step.args:
                 atom = failure.constraint.atom(failure.values)
                 args = atom.args if isinstance(atom, Atom) else ()
                 place = str(args[1]) if len(args) > 1 else None
-                self.forget_object(ctx.belief, step.args[0], place)  # not where it was believed
+                self._forget_at(ctx.belief, step.args[0], place)  # not where it was believed
 
         return forget
 
