@@ -166,9 +166,9 @@ class PyBulletWorld:
         if not isinstance(target, ArmGoal):
             return SkillResult.failure(f"not an arm goal: {target!r}", reason="bad_value")
         pose = self._true_pose(target.pose)
-        height = self._height(target)
+        height = goal_height(self.scene, target)
         if target.phase == "pre":
-            ignore = () if self.scene.held else tuple(self._near(pose))
+            ignore = () if self.scene.held else tuple(near_graspable(self.scene, pose))
             ok = self.skills.pre_approach(pose, target.grasp.kind, height, ignore=ignore)
             what = "pre-approach"
         else:
@@ -177,22 +177,6 @@ class PyBulletWorld:
         if not ok:
             return SkillResult.failure(f"{what} to {target.pose} failed", reason="unreachable")
         return SkillResult.success(f"{what} {target.pose}")
-
-    def _height(self, target: ArmGoal) -> float:
-        name = self.scene.held or target.obj
-        known = {o.name for o in self.scene.config.objects}
-        return self.scene.config.obj(name).height if name in known else 0.05
-
-    def _near(self, pose: ObjectPose) -> list[str]:
-        """Objects within 6 cm of a grasp point (the target itself): not obstacles for the hand."""
-        out = []
-        for o in self.scene.config.objects:
-            if not o.graspable:
-                continue
-            at, _ = self.scene.pose(o.name)
-            if math.hypot(at[0] - pose.x, at[1] - pose.y) < 0.06:
-                out.append(o.name)
-        return out
 
     def wrist_detect(self, obj: str) -> ObjectPose | None:
         """Look with the wrist camera (from a pre-approach) for ``obj``: a fresh pose."""
@@ -304,3 +288,22 @@ def _quaternion(m: np.ndarray) -> tuple[float, float, float, float]:
 
 
 __all__ = ["Event", "Frame", "PyBulletWorld", "look_orientation"]
+
+
+def goal_height(scene: Scene, target: ArmGoal) -> float:
+    """The height of what an arm goal handles: the held object, else the target (5 cm unknown)."""
+    name = scene.held or target.obj
+    known = {o.name for o in scene.config.objects}
+    return scene.config.obj(name).height if name in known else 0.05
+
+
+def near_graspable(scene: Scene, pose: ObjectPose) -> list[str]:
+    """Objects within 6 cm of a grasp point (the target itself): not obstacles for the hand."""
+    out = []
+    for o in scene.config.objects:
+        if not o.graspable:
+            continue
+        at, _ = scene.pose(o.name)
+        if math.hypot(at[0] - pose.x, at[1] - pose.y) < 0.06:
+            out.append(o.name)
+    return out

@@ -246,12 +246,7 @@ class RosRobot:
 
     def wait(self, future: Any, seconds: float) -> bool:
         """Whether ``future`` is done within ``seconds`` (the spinner thread completes it)."""
-        end = time.monotonic() + seconds
-        while not future.done():
-            if time.monotonic() > end:
-                return False
-            time.sleep(0.002)
-        return True
+        return self.spinner.wait(future, seconds)
 
     def lost_error(self, name: str, what: str) -> RobotLostError:
         kind = self.types[name]

@@ -46,6 +46,16 @@ class Spinner:
         with self.lock:
             return send()
 
+    @staticmethod
+    def wait(future: Any, seconds: float) -> bool:
+        """Whether ``future`` is done within ``seconds`` (the spinner thread completes it)."""
+        end = time.monotonic() + seconds
+        while not future.done():
+            if time.monotonic() > end:
+                return False
+            time.sleep(0.002)
+        return True
+
     def shutdown(self) -> None:
         """Stop spinning; the node goes with its context when the spinner does not stop."""
         self.stopping.set()

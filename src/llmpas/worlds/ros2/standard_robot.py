@@ -35,7 +35,7 @@ from llmpas.worlds.pybullet.camera import RIM_MARGIN
 from llmpas.worlds.pybullet.scene import TABLE_TOP, Scene
 from llmpas.worlds.pybullet.skills import Skills
 from llmpas.worlds.pybullet.values import ArmGoal, BaseConf, ObjectPose
-from llmpas.worlds.pybullet.world import look_orientation
+from llmpas.worlds.pybullet.world import goal_height, look_orientation, near_graspable
 from llmpas.worlds.ros2 import convert
 from llmpas.worlds.ros2.client import RobotUnavailableError, Timeouts
 from llmpas.worlds.ros2.node import FJT, GRIPPER, NAV, STANDARD, action_names
@@ -300,12 +300,7 @@ class StandardRobot:
         return got
 
     def wait(self, future: Any, seconds: float) -> bool:
-        end = time.monotonic() + seconds
-        while not future.done():
-            if time.monotonic() > end:
-                return False
-            time.sleep(0.002)
-        return True
+        return self.spinner.wait(future, seconds)
 
     # ------------------------------------------------------------------ connection
 
@@ -532,9 +527,9 @@ class StandardRobot:
         if not isinstance(target, ArmGoal):
             return SkillResult.failure(f"not an arm goal: {target!r}", reason="bad_value")
         pose, kind = target.pose, target.grasp.kind
-        height = self._height(target)
+        height = goal_height(self.scene, target)
         if target.phase == "pre":
-            ignore = () if self.scene.held else tuple(self._near(pose))
+            ignore = () if self.scene.held else tuple(near_graspable(self.scene, pose))
             what = "pre-approach"
 
             def plan() -> bool:
@@ -548,21 +543,6 @@ class StandardRobot:
         failed = SkillResult.failure(f"{what} to {target.pose} failed", reason="unreachable")
         done = SkillResult.success(f"{what} {target.pose}")
         return Steps(self, [self._plan(plan, failed)], done)
-
-    def _height(self, target: ArmGoal) -> float:
-        name = self.scene.held or target.obj
-        known = {o.name for o in self.scene.config.objects}
-        return self.scene.config.obj(name).height if name in known else 0.05
-
-    def _near(self, pose: ObjectPose) -> list[str]:
-        out = []
-        for o in self.scene.config.objects:
-            if not o.graspable:
-                continue
-            at, _ = self.scene.pose(o.name)
-            if math.hypot(at[0] - pose.x, at[1] - pose.y) < 0.06:
-                out.append(o.name)
-        return out
 
     def grasp(self, obj: str, grasp: Any) -> Steps | SkillResult:
         """Close the hand (held when the fingers stall on something), lift, fold; a miss opens
