@@ -15,6 +15,9 @@ from llmpas.system import loop_markdown
 from tests.test_system import clean_blackboard  # noqa: F401 (autouse)
 
 CHORES = str(Path(__file__).parent / "data" / "loop" / "stuck-drawer-two-chores.toml")
+KITCHEN = parse_domain(
+    (Path(__file__).parents[1] / "src/llmpas/worlds/kitchen/domain.pddl").read_text()
+)
 
 
 def test_a_substitute_is_carried_into_the_task_and_the_other_chore_is_done() -> None:
@@ -68,3 +71,37 @@ def test_no_known_cause_no_substitution() -> None:
         TASK, [Atom("at", ("s2", "s1"))], KINDS | {Atom("cracked", ("red",))}, causes
     )
     assert shelf is None
+
+
+JUDGED = str(Path(__file__).parent / "data" / "loop" / "jammed-drawer-judged.toml")
+
+
+def test_a_substitute_is_a_candidate_and_candidates_first_finishes_the_task() -> None:
+    """Issue #42 item 6: the target drawer turns out jammed; another drawer serves (the judge's
+    success says so). The blocked literal with another drawer is among the candidates, so the
+    enumeration's own order (no model) finishes the task through it; before, every candidate
+    failed the checks at the first consultation."""
+    from llmpas.experiments.suite import load_task
+    from llmpas.experiments.worlds import LoopConfig
+    from llmpas.reasoning.methods import MethodConfig
+    from llmpas.system.substitution import Causes, substitutes
+
+    task = load_task(JUDGED)
+    config = LoopConfig(method=MethodConfig(method="candidates-first"), success=task.success)
+    result = run_loop(task.scenario, "oracle", config)
+    assert result.success and result.truth, result.message
+    first = next(r.proposal for r in result.rounds if r.proposal is not None)
+    assert str(first.goals[0]) == "(on cube drawer1)"  # the first substitute, as enumerated
+    assert len(result.substitutions) == 1 and "(jammed drawer2)" in result.substitutions[0]
+    assert result.message.startswith("the substituted task (and (on cube drawer1)) is done")
+    kinds = {Atom("drawer", (d,)) for d in ("drawer1", "drawer2", "drawer3")}
+    facts = kinds | {Atom("jammed", ("drawer2",)), Atom("region", ("table1",))}
+    found = substitutes(And((Atom("on", ("cube", "drawer2")),)), facts, Causes.of(KITCHEN), ())
+    assert found == []  # no objects offered, no substitutes
+    found = substitutes(
+        And((Atom("on", ("cube", "drawer2")),)),
+        facts,
+        Causes.of(KITCHEN),
+        ("drawer1", "drawer2", "drawer3", "table1", "cube"),
+    )
+    assert [str(g) for g in found] == ["(on cube drawer1)", "(on cube drawer3)"]

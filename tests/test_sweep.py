@@ -41,7 +41,7 @@ def test_candidates_first_sweeps_in_the_enumeration_s_order_and_stops_when_seen(
     order = ["drawer1", "drawer2", "drawer3", "drawer4", "fridge", "microwave"]
     assert looks(result) == order  # stops at the microwave: the tables are not searched
     notes = [r.note for r in result.rounds if r.note]
-    assert len(notes) == 6 and "budget at most 12 places, 300 s" in notes[0]
+    assert len(notes) == 6 and "budget at most 12 places, 100 actions" in notes[0]
     assert "sweep for mug" in loop_markdown(result)
 
 

@@ -18,9 +18,14 @@ all accepted candidates would give, for far fewer planner calls. A literal that 
 anomaly's objects is never enumerated: it leaves the failed step as it was (a look at a place is
 the exception, while an object is lost: finding it is what changes the step).
 
-The order is the looks first (while an object is lost), then the vocabulary's (predicates by
-name, groundings sorted, a literal before its negation), singles before pairs: the
-``candidates-first`` control proposes in this order.
+**Substitutes.** When a known cause blocks a task literal (``(on box drawer2)`` with ``(jammed
+drawer2)``: a fact no action changes that an action needs false), the same literal with another
+object of the same kind (:func:`~llmpas.system.substitution.substitutes`) is a candidate even
+though it names none of the anomaly's objects: the loop carries it into the task.
+
+The order is the looks first (while an object is lost), then the substitutes, then the
+vocabulary's (predicates by name, groundings sorted, a literal before its negation), singles
+before pairs: the ``candidates-first`` control proposes in this order.
 """
 
 from __future__ import annotations
@@ -47,14 +52,19 @@ def enumerate_goals(
     excluded: Iterable[Literal] = (),
     read: Callable[[Literal], Literal] = lambda g: g,
     lost: Callable[[str], bool] = lambda name: False,
+    conflicts: Callable[[Literal, Literal], bool] | None = None,
+    substitutes: Iterable[Literal] = (),
 ) -> list[tuple[Literal, ...]]:
     """The candidate goal sets, in the enumeration's order (see the module's doc), after the
     cheap tests (makeable, not already true, not within the goal that just failed, not an
     exhausted search: ``excluded``, not naming a lost object: no plan acts on it before it is
-    found); each literal as the loop reads it (``read``: a lost object's place as a look); the
-    planner-backed checks come after the ranking (:func:`first_accepted`)."""
+    found; no pair ``conflicts`` excludes); ``substitutes`` (a blocked task literal with another
+    place of the same kind) come right after the looks; each literal as the loop reads it
+    (``read``: a lost object's place as a look); the planner-backed checks come after the
+    ranking (:func:`first_accepted`)."""
     banned = set(excluded)
-    singles: list[Literal] = list(dict.fromkeys(looks))  # a lost object's looks come first
+    # a lost object's looks come first, then the substitutes for a blocked task literal
+    singles: list[Literal] = list(dict.fromkeys((*looks, *substitutes)))
     for predicate, allowed in vocab.predicates.items():
         for args in itertools.product(*map(sorted, allowed)):
             if anchors & set(args):
@@ -71,6 +81,8 @@ def enumerate_goals(
     for a, b in itertools.combinations(kept[:PAIRED], 2):
         if len(pairs) >= MAX_PAIRS:
             break
+        if conflicts is not None and conflicts(a, b):
+            continue  # the domain's invariants exclude the pair (one object in two places)
         if _predicate(a) != _predicate(b) and set(_args(a)) & set(_args(b)):
             pairs.append((a, b))
     return [(g,) for g in kept] + pairs

@@ -2,7 +2,9 @@
 parse, which is reasoning's :data:`~llmpas.reasoning.methods.Check`. Reasoning calls it on
 every answer inside its repair loop; the feedback it writes is what a repair answers.
 
-In order: a search the robot already made in vain is rejected (a repeat); goals the robot
+In order: a search the robot already made in vain is rejected (a repeat); goals that the
+domain's invariants say cannot hold together are rejected before any planner call
+(:mod:`llmpas.planning.invariants`: one object in two places); goals the robot
 believes true are dropped (all of them: rejected); goals no plan reaches are dropped (all of
 them: rejected, naming lost objects); goals that cannot be reached together are rejected; goals
 tried before that did not help are rejected. Validating one answer costs 1 + n + 1 planner
@@ -52,6 +54,9 @@ class GoalChecker:
     # the feedback for goals that restate the goal that just failed, when planning them would
     # repeat the failure ("" otherwise; None: no such check)
     restated: Callable[[Sequence[Literal]], str] | None = None
+    # why goals cannot hold together by the domain's invariants ("" when they may; None: no
+    # such check): a contradiction never reaches the planner
+    contradiction: Callable[[Sequence[Literal]], str] | None = None
 
     def __call__(self, parse: GoalParse) -> GoalParse:
         """Already-true goals are dropped; repeats of exhausted searches and of attempts that
@@ -78,6 +83,9 @@ class GoalChecker:
         if errors:
             culprits = [r for r in raw if (self.as_goal(r) if rewrite else r) in bad]
             return rejected(parse, GoalStatus.REPEATED, errors, culprits)
+        why = self.contradiction(parse.goals) if self.contradiction is not None else ""
+        if why:
+            return rejected(parse, GoalStatus.UNREACHABLE, [why])
         parse = self.drop_true(parse)
         if not parse.ok:
             return replace(parse, rejected=raw)

@@ -11,20 +11,23 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from llmpas.language.logic import And, Formula
+from llmpas.language.logic import And, Atom, Formula
 from llmpas.language.semantics import Semantics
+from llmpas.planning.invariants import Invariants
 from llmpas.reasoning.assists import Assists
 from llmpas.reasoning.choose import Ranked, chosen, nothing, rank
 from llmpas.reasoning.goals import Literal
 from llmpas.reasoning.llm import LLM
 from llmpas.reasoning.methods import MethodConfig, Proposal, method, propose
 from llmpas.reasoning.prompts import situation
+from llmpas.reasoning.tables import Vocabulary
 from llmpas.system.achievable import Makeable, certified
 from llmpas.system.acting import Acting
 from llmpas.system.anomaly import Anomaly, Tried
 from llmpas.system.candidates import enumerate_goals, first_accepted
 from llmpas.system.checks import GoalChecker
 from llmpas.system.search import SearchMemory
+from llmpas.system.substitution import Causes, substitutes
 from llmpas.system.sweep import Sweep, SweepBudget, ordered
 
 
@@ -46,9 +49,11 @@ class Consultation:
     ranked_for: str = ""  # choosing methods: the anomaly the ranking was made for
     ranked: list[Ranked] = field(default_factory=list)  # that ranking
     ranking: list[Ranked] = field(default_factory=list)  # its candidates not proposed yet
+    invariants: Invariants | None = None  # the domain's: goals that cannot hold together
 
     def __post_init__(self) -> None:
         s = self.acting.session
+        self.causes = Causes.of(s.domain)
         self.makeable = Makeable(
             s.domain,
             lambda literal: self.acting.facts(And((literal,))),
@@ -64,7 +69,13 @@ class Consultation:
             self.assists,
             self.makeable,
             self.restated,
+            self.contradiction if self.invariants is not None else None,
         )
+
+    def contradiction(self, goals: Sequence[Literal]) -> str:
+        """Why ``goals`` cannot hold together, by the domain's invariants ("" if they may)."""
+        assert self.invariants is not None
+        return self.invariants.contradiction(goals, self.acting.facts(And(tuple(goals))))
 
     def ask(self, anomaly: Anomaly, backend: LLM, asked: int) -> Proposal:
         """The method's proposal for ``anomaly`` (``asked``: consultations before this one)."""
@@ -81,9 +92,7 @@ class Consultation:
             prune=a.grammar_pruning,
         )
 
-    def sweep(
-        self, anomaly: Anomaly, proposal: Proposal, budget: SweepBudget, clock: Callable[[], float]
-    ) -> Sweep | None:
+    def sweep(self, anomaly: Anomaly, proposal: Proposal, budget: SweepBudget) -> Sweep | None:
         """The places an object-loss consultation yields, in its order: the proposal's looks
         as written, then, for a choosing method, the looks of the rest of its ranking in rank
         order (None: not an object loss, or the proposal is not all looks)."""
@@ -98,7 +107,7 @@ class Consultation:
         if method(self.method.method).chooser:
             singles = [r.goals[0] for r in self.ranking if len(r.goals) == 1]
             rest = [g for g in singles if self.memory.is_look(g)]
-        return Sweep(obj, ordered(goals, rest), budget, clock)
+        return Sweep(obj, ordered(goals, rest), budget)
 
     def situation(self, anomaly: Anomaly) -> Any:
         """The prompt's text for an anomaly, with what was tried before."""
@@ -165,7 +174,21 @@ class Consultation:
             self.memory.exhausted(),
             self.check.as_goal if self.assists.search_rewrite else lambda g: g,
             search.lost,
+            self.conflicts(),
+            self.substitutes(vocab),
         )
+
+    def substitutes(self, vocab: Vocabulary) -> list[Atom]:
+        """Candidates for a task literal a known cause blocks
+        (:func:`~llmpas.system.substitution.substitutes`), among the vocabulary's objects."""
+        facts = self.acting.facts(self.task)
+        return substitutes(self.task, facts, self.causes, vocab.objects)
+
+    def conflicts(self) -> Callable[[Literal, Literal], bool] | None:
+        """Whether two literals cannot hold together (None: no invariants)."""
+        if self.invariants is None:
+            return None
+        return self.invariants.conflicts(self.acting.facts(And(())))
 
 
 __all__ = ["Consultation"]

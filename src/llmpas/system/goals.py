@@ -12,11 +12,12 @@ from llmpas.language.logic import And, Atom, Formula, Not, atoms_of
 from llmpas.language.problem import Problem, parse_formula
 from llmpas.language.semantics import Semantics
 from llmpas.planning import PlanResult
+from llmpas.planning.invariants import Invariants
 from llmpas.reasoning.goals import Literal
 from llmpas.system.acting import Acting
 from llmpas.system.anomaly import Anomaly
 from llmpas.system.records import Round
-from llmpas.system.recovery import Stages, conjuncts, kept_goal, out_of_order
+from llmpas.system.recovery import Conflicts, Stages, conjuncts, kept_goal, out_of_order
 from llmpas.system.search import SearchMemory
 from llmpas.system.substitution import Causes, Substitution, substituted, substitution
 from llmpas.system.sweep import Sweep
@@ -33,6 +34,7 @@ class NextGoal:
     memory: SearchMemory
     success: str | None = None
     stages: Stages = field(default_factory=Stages)
+    invariants: Invariants | None = None  # the domain's: which literals exclude each other
 
     def __post_init__(self) -> None:
         self.goal = parse_formula(self.task_text, self.sem.domain)
@@ -50,18 +52,39 @@ class NextGoal:
             self.substitutions.append(found)
         return found
 
+    def conflicts(self) -> Conflicts | None:
+        """Whether two literals cannot hold together, by the domain's invariants read in the
+        facts the planner plans from now (None: no invariants)."""
+        if self.invariants is None:
+            return None
+        return self.invariants.conflicts(self.acting.facts(self.goal))
+
     def holds(self) -> bool:
         """Whether the robot believes the task done: its intent (``success``) where the run
         has one, else its goal; read in the facts the planner plans from."""
         intent = parse_formula(self.success or self.task_text, self.sem.domain)
         return self.sem.holds(intent, self.acting.facts(intent))
 
+    def verdict(self) -> tuple[bool, str]:
+        """The run's verdict once the task's plan succeeded, and words that say which task was
+        done: the task as given, or as substituted (what replaced what), judged by its intent
+        (:meth:`holds`)."""
+        done = self.holds()
+        if not self.substitutions:
+            return done, "the task is done" if done else "the task's plan ran, but it does not hold"
+        what = "; ".join(s.describe() for s in self.substitutions)
+        text = f"the substituted task {self.task_text} is done ({what})"
+        if done:
+            return True, text
+        intent = self.success or self.task_text
+        return False, f"{text}, but the task's intent {intent} does not hold"
+
     def task(self) -> tuple[Formula, str]:
         """The task with the recovery goals reached so far kept true
         (:mod:`llmpas.system.recovery`), when that can be planned; else the task alone."""
         task = parse_formula(self.task_text, self.sem.domain)
         if self.stages.kept:
-            both = kept_goal(task, self.stages.kept)
+            both = kept_goal(task, self.stages.kept, (), self.conflicts())
             if self.acting.plan(both)[0].solved:
                 return both, str(both)
         return task, self.task_text
@@ -83,7 +106,7 @@ class NextGoal:
 
     def reached(self, rnd: Round, pending: frozenset[str] | None) -> None:
         """A recovery round succeeded: its goals are kept, its searches remembered."""
-        self.stages.reached(self.recovery_goals(rnd, pending))
+        self.stages.reached(self.recovery_goals(rnd, pending), self.conflicts())
         self.memory.searched_in(parse_formula(rnd.goal, self.sem.domain))
 
     def answer(self, goals: list[Literal], anomaly: Anomaly | None) -> tuple[Formula, str]:
@@ -97,19 +120,20 @@ class NextGoal:
         self.stages.queue = []
         self.substitute(goals)
         task = parse_formula(self.task_text, self.sem.domain)
-        both = kept_goal(task, self.stages.kept, goals)
+        conflicts = self.conflicts()
+        both = kept_goal(task, self.stages.kept, goals, conflicts)
         result, problem = self.acting.plan(both)
         repeats = result.solved and self.repeats(anomaly, result, problem)
         if result.solved and not repeats and not self.reordered(result, problem, goals):
             return both, str(both)
-        goal = kept_goal(And(()), self.stages.kept, goals)
+        goal = kept_goal(And(()), self.stages.kept, goals, conflicts)
         result, problem = self.acting.plan(goal)
         if not result.solved:
             goal = And(tuple(goals))
             result, problem = self.acting.plan(goal)
         if result.solved and self.reordered(result, problem, goals):
             self.stages.queue = list(goals[1:])
-            goal = kept_goal(And(()), self.stages.kept, goals[:1])
+            goal = kept_goal(And(()), self.stages.kept, goals[:1], conflicts)
             if not self.acting.plan(goal)[0].solved:
                 goal = And(tuple(goals[:1]))
         return goal, str(goal)
@@ -122,8 +146,9 @@ class NextGoal:
             return None
         for look in sweep.candidates(self.memory.exhausted()):
             goal, text = self.answer([look], anomaly)
-            if self.acting.plan(goal)[0].solved:
-                sweep.take(look)
+            result = self.acting.plan(goal)[0]
+            if result.solved and result.plan is not None:
+                sweep.take(look, len(result.plan.steps))
                 return goal, text
             sweep.passed.append(f"{look}: no plan reaches it")
             sweep.order.remove(look)
@@ -150,7 +175,7 @@ class NextGoal:
         names = frozenset(map(str, goals))
         if anomaly is None or not names or not names <= just_failed:
             return ""
-        both = kept_goal(self.goal, self.stages.kept, list(goals))
+        both = kept_goal(self.goal, self.stages.kept, list(goals), self.conflicts())
         result, problem = self.acting.plan(both)
         if not (result.solved and self.repeats(anomaly, result, problem)):
             return ""

@@ -20,6 +20,7 @@ from llmpas.errors import RobotLostError
 from llmpas.language.logic import Formula
 from llmpas.language.problem import parse_formula
 from llmpas.language.semantics import Semantics
+from llmpas.planning.invariants import Invariants
 from llmpas.reasoning.goals import Literal
 from llmpas.reasoning.llm import LLM, Baseline, LLMError
 from llmpas.system.acting import Acting, counted, execute, plan
@@ -81,7 +82,10 @@ class _Loop:
             settings.assists.unsearched_list,
         )
         self.tried = Tried()
-        self.goals = NextGoal(self.acting, self.sem, s.task, self.memory, settings.success)
+        invariants = Invariants.of(s.domain, s.problem(self.task, 0).streams)
+        self.goals = NextGoal(
+            self.acting, self.sem, s.task, self.memory, settings.success, invariants=invariants
+        )
         self.consult = Consultation(
             self.acting,
             self.sem,
@@ -92,6 +96,7 @@ class _Loop:
             method,
             settings.assists,
             settings.success,
+            invariants=invariants,
         )
         self.start = self.clock()
 
@@ -121,7 +126,7 @@ class _Loop:
             asked = len([r for r in self.rounds if r.proposal])
             if ep is not None and ep.succeeded:
                 if on_task or self.goals.holds():
-                    return self.end(self.goals.holds(), "the task is done")
+                    return self.end(*self.goals.verdict())
                 self.goals.reached(rnd, self.tried.pending)
                 if self.goals.stages.queue:  # the LLM's next goals, in the order it wrote them
                     goal, text = self.goals.answer(self.goals.stages.queue, self.anomaly)
@@ -171,7 +176,7 @@ class _Loop:
             # achieved goals that did not help count as tried, and so do goals whose execution
             # failed (:meth:`Tried.failed_round`)
             self.tried.pending = frozenset(map(str, proposal.goals))
-            self.sweep = self.consult.sweep(anomaly, proposal, self.settings.sweep, self.clock)
+            self.sweep = self.consult.sweep(anomaly, proposal, self.settings.sweep)
             look = self.next_look()
             made = len(self.goals.substitutions)
             goal, text = look or self.goals.answer(list(proposal.goals), self.anomaly)

@@ -25,7 +25,7 @@ no trajectory constraints, and the joined goal plus staging cover both shapes.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 
 from llmpas.language.logic import And, Atom, Formula, Not, atoms_of
@@ -46,18 +46,43 @@ def conjuncts(f: Formula) -> tuple[Formula, ...]:
     return (f,)
 
 
-def kept_goal(task: Formula, kept: Sequence[Literal], new: Sequence[Literal] = ()) -> Formula:
+def kept_goal(
+    task: Formula,
+    kept: Sequence[Literal],
+    new: Sequence[Literal] = (),
+    conflicts: Conflicts | None = None,
+) -> Formula:
     """``new`` goals, the task's conjuncts they do not contradict, and the ``kept`` recovery
-    goals that neither contradicts, as one conjunction (in that order, without repeats)."""
+    goals that neither contradicts, as one conjunction (in that order, without repeats).
+    ``conflicts``: whether two literals cannot hold together (the domain's invariants): a new
+    goal replaces the task's literal it is about (``(on mug table2)`` for the task's ``(on mug
+    sink)`` in this round's goal), and a kept goal that conflicts with either is left out, so
+    that no joined goal puts one object in two places."""
+    clash = conflicts or _never
     parts: list[Formula] = list(new)
     banned = {negation(g) for g in new}
     for c in conjuncts(task):
-        if c not in banned and c not in parts:
-            parts.append(c)
+        if c in banned or c in parts or any(clash(c, g) for g in new if _literal(c)):
+            continue
+        parts.append(c)
     banned |= {negation(c) for c in conjuncts(task) if isinstance(c, Atom | Not)}
     banned |= {Not(a) for a in atoms_of(task)}  # a task atom under a disjunction, say
-    parts += [k for k in dict.fromkeys(kept) if k not in banned and k not in parts]
+    for k in dict.fromkeys(kept):
+        if k in banned or k in parts or any(clash(k, p) for p in parts if _literal(p)):
+            continue
+        parts.append(k)
     return And(tuple(parts))
+
+
+Conflicts = Callable[[Formula, Formula], bool]
+
+
+def _never(a: Formula, b: Formula) -> bool:
+    return False
+
+
+def _literal(f: Formula) -> bool:
+    return isinstance(f, Atom) or (isinstance(f, Not) and isinstance(f.arg, Atom))
 
 
 def reached_at(
@@ -112,12 +137,21 @@ class Stages:
     kept: list[Literal] = field(default_factory=list)
     queue: list[Literal] = field(default_factory=list)
 
-    def reached(self, goals: Iterable[Literal]) -> None:
+    def reached(self, goals: Iterable[Literal], conflicts: Conflicts | None = None) -> None:
+        """``goals`` were reached: kept from now on, in place of the kept goals they
+        contradict (the opposite literal, or one the domain's invariants exclude)."""
+        clash = conflicts or _never
         for g in goals:
-            if negation(g) in self.kept:
-                self.kept.remove(negation(g))  # the LLM now asks for the opposite
+            self.kept = [k for k in self.kept if k != negation(g) and not clash(k, g)]
             if g not in self.kept:
                 self.kept.append(g)
 
 
-__all__ = ["Stages", "conjuncts", "kept_goal", "negation", "out_of_order", "reached_at"]
+__all__ = [
+    "Stages",
+    "conjuncts",
+    "kept_goal",
+    "negation",
+    "out_of_order",
+    "reached_at",
+]

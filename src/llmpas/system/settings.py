@@ -22,7 +22,7 @@ class LoopSettings:
     # the task's intent (a task file's ``[judge] success``, PDDL): what ends the loop, so that
     # an equivalent object can satisfy it; None: the task goal itself
     success: str | None = None
-    # how far one object-loss consultation's search may go (places, seconds)
+    # how far one object-loss consultation's search may go (places, actions: counts)
     sweep: SweepBudget = field(default_factory=SweepBudget)
 
     def __post_init__(self) -> None:

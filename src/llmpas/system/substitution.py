@@ -80,6 +80,29 @@ def substitution(
     return None
 
 
+def substitutes(
+    task: Formula, facts: Set[Atom], causes: Causes, objects: Iterable[str]
+) -> list[Atom]:
+    """The goals that would substitute a task literal a known cause blocks: for each task atom
+    with an argument that a blocking fact of ``facts`` names (``(on box drawer2)`` with
+    ``(jammed drawer2)``), the same atom with that argument replaced by another object of the
+    same kind that no blocking fact names (``(on box drawer1)``), in the task's order, then the
+    objects'. What :func:`substitution` carries into the task, offered as candidates."""
+    parts = [c for c in conjuncts(task) if isinstance(c, Atom)]
+    blocked = {a for f in facts if f.predicate.lower() in causes.blocking for a in f.args}
+    out: list[Atom] = []
+    for t in parts:
+        for i, arg in enumerate(t.args):
+            if arg not in blocked:
+                continue
+            for o in sorted(set(objects) - blocked):
+                if _same_kind(arg, o, facts, causes):
+                    g = Atom(t.predicate, (*t.args[:i], o, *t.args[i + 1 :]))
+                    if g not in out and g not in parts:
+                        out.append(g)
+    return out
+
+
 def substituted(task: Formula, s: Substitution) -> Formula:
     """``task`` with its literal ``s.replaced`` replaced by ``s.by``."""
     return And(tuple(s.by if c == s.replaced else c for c in conjuncts(task)))
@@ -106,4 +129,4 @@ def _same_kind(a: str, b: str, facts: Iterable[Atom], causes: Causes) -> bool:
     return bool(kind(a)) and kind(a) == kind(b)
 
 
-__all__ = ["Causes", "Substitution", "substituted", "substitution"]
+__all__ = ["Causes", "Substitution", "substituted", "substitutes", "substitution"]

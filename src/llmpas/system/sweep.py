@@ -1,5 +1,6 @@
 """A search sweeps: the places one object-loss consultation yields, searched in order until the
-lost object is seen, within a budget (places and seconds).
+lost object is seen, within a counted budget (places searched and actions planned for them), so
+that a sweep ends at the same place on any machine and under any load.
 
 The order is the method's: a goal-writing method's looks in the order written; a choosing
 method's chosen look, then the looks of the rest of its ranking, in rank order (for
@@ -11,8 +12,7 @@ and what every look saw stays in the belief (the loop never forgets it).
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 from llmpas.reasoning.goals import Literal
@@ -20,44 +20,40 @@ from llmpas.reasoning.goals import Literal
 
 @dataclass(frozen=True)
 class SweepBudget:
-    """How far one sweep may go: ``places`` looks at most, ``seconds`` since it began (checked
-    before each look; the look under way always finishes)."""
+    """How far one sweep may go, in counts: ``places`` looks at most, and ``actions`` planned
+    for them at most (checked before each look; the look under way always finishes)."""
 
     places: int = 12
-    seconds: float = 300.0
+    actions: int = 100
 
     def __post_init__(self) -> None:
         if self.places < 1:
             raise ValueError(f"a sweep searches at least 1 place, got {self.places}")
-        if not (math.isfinite(self.seconds) and self.seconds > 0):
-            raise ValueError(f"a sweep's seconds must be a positive number, got {self.seconds}")
+        if self.actions < 1:
+            raise ValueError(f"a sweep plans at least 1 action, got {self.actions}")
 
     def describe(self) -> str:
-        return f"at most {self.places} places, {self.seconds:g} s"
+        return f"at most {self.places} places, {self.actions} actions"
 
 
 @dataclass
 class Sweep:
     """One consultation's search for ``obj``: the looks still to make (``order``), those made
-    (``made``), from ``started`` on ``clock``."""
+    (``made``) and the actions planned for them (``actions``)."""
 
     obj: str
     order: list[Literal]
     budget: SweepBudget
-    clock: Callable[[], float]
-    started: float = 0.0
     made: list[Literal] = field(default_factory=list)
     passed: list[str] = field(default_factory=list)  # looks passed over, and why
-
-    def __post_init__(self) -> None:
-        self.started = self.clock()
+    actions: int = 0
 
     def over(self) -> str:
         """Why the sweep may make no more looks ("" while it may)."""
         if len(self.made) >= self.budget.places:
             return f"the budget's {self.budget.places} places are searched"
-        if self.clock() - self.started >= self.budget.seconds:
-            return f"the budget's {self.budget.seconds:g} s are spent"
+        if self.actions >= self.budget.actions:
+            return f"the budget's {self.budget.actions} actions are planned"
         return ""
 
     def candidates(self, exhausted: Iterable[Literal]) -> list[Literal]:
@@ -72,9 +68,11 @@ class Sweep:
         self.order = left
         return list(left)
 
-    def take(self, look: Literal) -> None:
+    def take(self, look: Literal, actions: int) -> None:
+        """``look`` is made, with a plan of ``actions`` steps."""
         self.order = [g for g in self.order if g != look]
         self.made.append(look)
+        self.actions += actions
 
     def note(self) -> str:
         """The page's line for the look just made."""
