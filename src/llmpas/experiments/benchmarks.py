@@ -38,6 +38,7 @@ BENCHMARKS: Mapping[str, str] = MappingProxyType(
         "pddlstream": "llmpas.experiments.pddlstream_bench:BENCHMARK",
         "perturbation": "llmpas.experiments.perturbation:BENCHMARK",
         "prompting": "llmpas.experiments.prompting:BENCHMARK",
+        "recovery": "llmpas.experiments.recovery_bench:BENCHMARK",
         "blocksworld": "llmpas.experiments.blocksworld:BENCHMARK",
         "llm": "llmpas.experiments.llm_bench:BENCHMARK",
         "report": "llmpas.experiments.webreport:BENCHMARK",

@@ -61,6 +61,7 @@ class Acting:
     index: Callable[[], int]
     plans: dict[tuple[str, int], tuple[PlanResult, Any]] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
+    statuses: dict[str, int] = field(default_factory=dict)  # how each plan made ended
 
     def plan(self, goal: Formula | str) -> tuple[PlanResult, Any]:
         """Plan from the current belief (memoised per round: a goal tried for feasibility is
@@ -70,6 +71,8 @@ class Acting:
             t = time.perf_counter()
             self.plans[key] = plan(self.session, goal, self.index())
             self.count("plan", time.perf_counter() - t)
+            status = self.plans[key][0].status.value
+            self.statuses[status] = self.statuses.get(status, 0) + 1
         return self.plans[key]
 
     def facts(self, goal: Formula) -> frozenset[Atom]:

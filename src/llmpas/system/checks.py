@@ -16,6 +16,7 @@ plans from, so a test can run it with a few facts and a planner that answers fro
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Sequence, Set
 from dataclasses import dataclass, field, replace
 
@@ -25,6 +26,7 @@ from llmpas.planning import PlanResult, PlanStatus
 from llmpas.reasoning.assists import Assists
 from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal
 from llmpas.reasoning.methods import rejected
+from llmpas.system.records import DECIDED_BY, CheckRecord
 from llmpas.system.search import SearchMemory
 
 UNJUDGED = (PlanStatus.TIMEOUT, PlanStatus.CRASHED, PlanStatus.ERROR)  # no verdict
@@ -57,16 +59,31 @@ class GoalChecker:
     # why goals cannot hold together by the domain's invariants ("" when they may; None: no
     # such check): a contradiction never reaches the planner
     contradiction: Callable[[Sequence[Literal]], str] | None = None
+    # how many plans the planner has made so far (the calls a check makes are logged)
+    calls: Callable[[], int] = lambda: 0
+    log: list[CheckRecord] = field(default_factory=list, compare=False)  # every check, in order
 
     def __call__(self, parse: GoalParse) -> GoalParse:
         """Already-true goals are dropped; repeats of exhausted searches and of attempts that
-        did not help, and unreachable goals, are rejected with feedback."""
+        did not help, contradictions and unreachable goals are rejected with feedback. Each
+        call is logged (:attr:`log`): the goals, the verdict, how it was decided, its time and
+        the planner calls it made."""
+        started, calls = time.perf_counter(), self.calls()
+        out, by = self.decide(parse)
+        verdict = "accepted" if out.ok else out.status.value
+        seconds = time.perf_counter() - started
+        text = " ".join(map(str, parse.goals))
+        self.log.append(CheckRecord(text, verdict, by, seconds, self.calls() - calls))
+        return out
+
+    def decide(self, parse: GoalParse) -> tuple[GoalParse, str]:
+        """The checked parse and how it was decided (:data:`DECIDED_BY`)."""
         raw = parse.goals
         rewrite = self.assists.search_rewrite
         if rewrite:
             parse = self.as_searches(parse)
         if not self.assists.validation:
-            return parse
+            return parse, "unchecked"
         errors = []
         bad = []
         searching = self.memory.searching()
@@ -82,25 +99,37 @@ class GoalChecker:
                         )
         if errors:
             culprits = [r for r in raw if (self.as_goal(r) if rewrite else r) in bad]
-            return rejected(parse, GoalStatus.REPEATED, errors, culprits)
+            return rejected(parse, GoalStatus.REPEATED, errors, culprits), "repeat"
         why = self.contradiction(parse.goals) if self.contradiction is not None else ""
         if why:
-            return rejected(parse, GoalStatus.UNREACHABLE, [why])
+            return rejected(parse, GoalStatus.UNREACHABLE, [why]), "invariant"
         parse = self.drop_true(parse)
         if not parse.ok:
-            return replace(parse, rejected=raw)
-        parse = self.reachable(parse)
+            return replace(parse, rejected=raw), "already true"
+        calls, goals = self.calls(), parse.goals
+        parse, by = self.reachable(parse), "search"
         if not parse.ok:
+            by = self.rejected_by(goals, self.calls() - calls)
             culprits = [r for r in raw if (self.as_goal(r) if rewrite else r) in parse.rejected]
-            return replace(parse, rejected=tuple(culprits))
+            return replace(parse, rejected=tuple(culprits)), by
         why = self.restated(parse.goals) if self.restated is not None else ""
         if why:
-            return rejected(parse, GoalStatus.REPEATED, [why], raw if len(raw) == 1 else ())
+            return rejected(parse, GoalStatus.REPEATED, [why], raw if len(raw) == 1 else ()), by
         key = frozenset(map(str, parse.goals))
         if key in self.tried():
             errors = [f"{' '.join(sorted(key))} was already tried and did not help"]
-            return rejected(parse, GoalStatus.REPEATED, errors, raw if len(raw) == 1 else ())
-        return parse
+            return rejected(parse, GoalStatus.REPEATED, errors, raw if len(raw) == 1 else ()), by
+        return parse, by
+
+    def rejected_by(self, goals: Sequence[Literal], calls: int) -> str:
+        """How :meth:`reachable` rejected ``goals``, having made ``calls`` planner calls: a
+        literal no action makes true (no call), a limit of the planner, or its search."""
+        if not calls and self.makeable is not None and not all(map(self.makeable, goals)):
+            return "no action makes it"
+        limits = (*UNJUDGED, PlanStatus.LIMIT)
+        if any(self.plan(And((g,))).status in limits for g in goals):
+            return "limit"
+        return "search"
 
     def as_searches(self, parse: GoalParse) -> GoalParse:
         """``(on X P)`` for a lost object X and a place P the robot can search is read as the
@@ -181,4 +210,4 @@ class GoalChecker:
         return text
 
 
-__all__ = ["UNJUDGED", "GoalChecker"]
+__all__ = ["DECIDED_BY", "UNJUDGED", "CheckRecord", "GoalChecker"]

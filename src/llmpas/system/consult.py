@@ -70,6 +70,7 @@ class Consultation:
             self.makeable,
             self.restated,
             self.contradiction if self.invariants is not None else None,
+            lambda: len(self.acting.plans),
         )
 
     def contradiction(self, goals: Sequence[Literal]) -> str:

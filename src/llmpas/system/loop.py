@@ -165,10 +165,11 @@ class _Loop:
                 self.memory.remember(anomaly.report)
             if self.expired():
                 return self.stop_at_deadline()
-            t = time.perf_counter()
+            t, logged = time.perf_counter(), len(self.consult.check.log)
             proposal = self.consult.ask(anomaly, backend, asked)
             self.llm_time += time.perf_counter() - t
-            self.rounds[-1] = replace(rnd, proposal=proposal)
+            checks = tuple(self.consult.check.log[logged:])
+            self.rounds[-1] = replace(rnd, proposal=proposal, checks=checks)
             self.record()
             if not proposal.ok:
                 errors = "; ".join(proposal.parse.errors)
@@ -226,6 +227,7 @@ class _Loop:
             error=error,
             task=self.goals.task_text if self.goals.substitutions else "",
             substitutions=tuple(x.describe() for x in self.goals.substitutions),
+            plans=dict(self.acting.statuses),
         )
 
     def record(self, result: LoopResult | None = None) -> None:

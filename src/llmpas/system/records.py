@@ -24,6 +24,32 @@ if TYPE_CHECKING:
     from llmpas.worlds.api import Session
 
 
+#: How a check was decided: a search made in vain before, the domain's invariants, the belief,
+#: no action that makes a literal true, the planner, or a limit of the planner (no verdict).
+DECIDED_BY = ("repeat", "invariant", "already true", "no action makes it", "search", "limit")
+
+
+@dataclass(frozen=True)
+class CheckRecord:
+    """One check of a goal set: ``verdict`` ("accepted" or the rejection's status), ``by``
+    (:data:`DECIDED_BY`, or "unchecked"), its time and the planner calls it made."""
+
+    goals: str
+    verdict: str
+    by: str
+    seconds: float
+    planner_calls: int
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "goals": self.goals,
+            "verdict": self.verdict,
+            "by": self.by,
+            "seconds": round(self.seconds, 4),
+            "planner_calls": self.planner_calls,
+        }
+
+
 @dataclass(frozen=True)
 class Round:
     """One plan-and-execute round, and the LLM's answer to its anomaly (if any)."""
@@ -34,6 +60,7 @@ class Round:
     proposal: Proposal | None = None
     specs: tuple[SubtreeSpec, ...] = field(default=(), compare=False, repr=False)
     note: str = ""  # what the loop says of the round (a sweep's look, a substitution)
+    checks: tuple[CheckRecord, ...] = ()  # the checks its consultation made, in order
 
     def to_json(self) -> dict[str, Any]:
         ep = self.episode
@@ -48,6 +75,8 @@ class Round:
             out["reasoning"] = _proposal_json(self.proposal)
         if self.note:
             out["note"] = self.note
+        if self.checks:
+            out["checks"] = [c.to_json() for c in self.checks]
         return out
 
 
@@ -114,6 +143,9 @@ class LoopResult:
     # and what it substituted and why
     task: str = ""
     substitutions: tuple[str, ...] = ()
+    # how every plan the run made ended (status -> count), checks included: a ``timeout`` is a
+    # time limit that fired (a safety net), the one outcome that depends on the machine
+    plans: Mapping[str, int] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.status is None:
@@ -148,6 +180,7 @@ class LoopResult:
             "llm_time": round(self.llm_time, 3),
             "timings": {k: round(v, 3) for k, v in self.timings.items()},
             "rounds": [r.to_json() for r in self.rounds],
+            "plans": dict(self.plans),
             **(substituted if self.substitutions else {}),
         }
 
