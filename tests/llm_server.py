@@ -133,3 +133,59 @@ def serve(*replies: Reply) -> Iterator[FakeServer]:
         httpd.shutdown()
         httpd.server_close()
         thread.join(timeout=5)
+
+
+Answer = Callable[[dict[str, Any]], bytes]  # a chat completion's body, from the request's
+
+
+@contextmanager
+def serve_answers(answer: Answer) -> Iterator[FakeServer]:
+    """A server on 127.0.0.1 whose every chat completion is ``answer(request body)`` (status
+    200; any other path: 404): a scripted model that reads what it is asked."""
+
+    def body(headers: Mapping[str, str]) -> bytes:  # pragma: no cover - replaced per request
+        raise AssertionError("answers come from the request")
+
+    class Answering(Handler):
+        def do_POST(self) -> None:
+            if not self.path.endswith("/chat/completions"):
+                self.send_response(404)
+                self.send_header("Content-Length", "0")
+                self.end_headers()
+                return
+            length = min(int(self.headers.get("Content-Length", 0)), MAX_REQUEST)
+            request = json.loads(self.rfile.read(length) or b"{}")
+            self.fake.received.append({"path": self.path, **request})
+            data = answer(request)
+            try:
+                self.send_response(200)
+                self.send_header("Content-Type", "application/json")
+                self.send_header("Content-Length", str(len(data)))
+                self.end_headers()
+                self.wfile.write(data)
+            except (BrokenPipeError, ConnectionResetError):
+                pass
+
+    fake = FakeServer(url="", replies=[Reply(200, body)])
+    handler = type("BoundAnswering", (Answering,), {"fake": fake})
+    httpd = ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    httpd.daemon_threads = True
+    fake.url = f"http://127.0.0.1:{httpd.server_address[1]}/v1"
+    thread = threading.Thread(target=httpd.serve_forever, args=(0.05,), daemon=True)
+    thread.start()
+    try:
+        yield fake
+    finally:
+        fake.stop.set()
+        httpd.shutdown()
+        httpd.server_close()
+        thread.join(timeout=5)
+
+
+def scored_body(text: str, logprob: float) -> bytes:
+    """A chat completion that answers ``text``, one token per character, each with
+    ``logprob``: what a scoring request's forced answer looks like."""
+    tokens = [{"token": c, "logprob": logprob, "top_logprobs": []} for c in text]
+    body = json.loads(completion_body(text))
+    body["choices"][0]["logprobs"] = {"content": tokens}
+    return json.dumps(body).encode()

@@ -39,6 +39,7 @@ BENCHMARKS: Mapping[str, str] = MappingProxyType(
         "perturbation": "llmpas.experiments.perturbation:BENCHMARK",
         "prompting": "llmpas.experiments.prompting:BENCHMARK",
         "recovery": "llmpas.experiments.recovery_bench:BENCHMARK",
+        "knowledge": "llmpas.experiments.knowledge:BENCHMARK",
         "blocksworld": "llmpas.experiments.blocksworld:BENCHMARK",
         "llm": "llmpas.experiments.llm_bench:BENCHMARK",
         "report": "llmpas.experiments.webreport:BENCHMARK",

@@ -44,6 +44,15 @@ from llmpas.system.sweep import Sweep
 from llmpas.worlds.api import Session
 
 
+class Consulting(Exception):
+    """Raised by a probing loop where it would consult the method: the anomaly it would ask
+    about (:mod:`llmpas.system.probe`)."""
+
+    def __init__(self, anomaly: Anomaly) -> None:
+        super().__init__(anomaly.text)
+        self.anomaly = anomaly
+
+
 @dataclass
 class _Loop:
     """The rounds of one run: what was planned and executed, the anomaly being resolved and
@@ -60,6 +69,7 @@ class _Loop:
     baseline: bool = False  # a Baseline answers (no LLM): its restatements are planned as given
     sweep: Sweep | None = None  # the search the last consultation yields, while it goes on
     note: str = ""  # what the page says of the next round (a sweep's look)
+    probing: bool = False  # stop at the first consultation (:class:`Consulting`), asking nobody
 
     def __post_init__(self) -> None:
         s, settings = self.session, self.settings
@@ -165,6 +175,8 @@ class _Loop:
                 self.memory.remember(anomaly.report)
             if self.expired():
                 return self.stop_at_deadline()
+            if self.probing:
+                raise Consulting(anomaly)
             t, logged = time.perf_counter(), len(self.consult.check.log)
             proposal = self.consult.ask(anomaly, backend, asked)
             self.llm_time += time.perf_counter() - t
