@@ -120,14 +120,21 @@ def serve(*replies: Reply) -> Iterator[FakeServer]:
     """A server on 127.0.0.1 (a free port) answering ``replies``; ``url`` ends in ``/v1``."""
     default = Reply(200, completion_body("(and (on cube bowl))"))
     fake = FakeServer(url="", replies=list(replies) or [default])
-    handler = type("BoundHandler", (Handler,), {"fake": fake})
-    httpd = ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    with _serving(Handler, fake):
+        yield fake
+
+
+@contextmanager
+def _serving(handler: type[Handler], fake: FakeServer) -> Iterator[None]:
+    """``handler`` bound to ``fake``, served on 127.0.0.1 (a free port) until the block ends."""
+    bound = type("Bound" + handler.__name__, (handler,), {"fake": fake})
+    httpd = ThreadingHTTPServer(("127.0.0.1", 0), bound)
     httpd.daemon_threads = True
     fake.url = f"http://127.0.0.1:{httpd.server_address[1]}/v1"
     thread = threading.Thread(target=httpd.serve_forever, args=(0.05,), daemon=True)
     thread.start()
     try:
-        yield fake
+        yield
     finally:
         fake.stop.set()
         httpd.shutdown()
@@ -167,19 +174,8 @@ def serve_answers(answer: Answer) -> Iterator[FakeServer]:
                 pass
 
     fake = FakeServer(url="", replies=[Reply(200, body)])
-    handler = type("BoundAnswering", (Answering,), {"fake": fake})
-    httpd = ThreadingHTTPServer(("127.0.0.1", 0), handler)
-    httpd.daemon_threads = True
-    fake.url = f"http://127.0.0.1:{httpd.server_address[1]}/v1"
-    thread = threading.Thread(target=httpd.serve_forever, args=(0.05,), daemon=True)
-    thread.start()
-    try:
+    with _serving(Answering, fake):
         yield fake
-    finally:
-        fake.stop.set()
-        httpd.shutdown()
-        httpd.server_close()
-        thread.join(timeout=5)
 
 
 def scored_body(text: str, logprob: float) -> bytes:
