@@ -36,6 +36,7 @@ from llmpas.system.backends import (
 )
 from llmpas.system.consult import Consultation
 from llmpas.system.goals import NextGoal
+from llmpas.system.observe import Observer
 from llmpas.system.records import LoopResult, LoopStatus, OnRound, Round
 from llmpas.system.search import SearchMemory
 from llmpas.system.settings import LoopSettings
@@ -59,6 +60,7 @@ class _Loop:
     baseline: bool = False  # a Baseline answers (no LLM): its restatements are planned as given
     sweep: Sweep | None = None  # the search the last consultation yields, while it goes on
     note: str = ""  # what the page says of the next round (a sweep's look)
+    observer: Observer | None = None  # a viewer told of every step (None: nobody watches)
 
     def __post_init__(self) -> None:
         s, settings = self.session, self.settings
@@ -70,7 +72,7 @@ class _Loop:
         self.sem = Semantics(s.domain, {}, {}, strict_costs=False)
         self.task = parse_formula(s.task, self.sem.domain)
         self.search = s.search
-        self.acting = Acting(s, lambda: len(self.rounds))
+        self.acting = Acting(s, lambda: len(self.rounds), observer=self.observer)
         location = self.search.location
         self.memory = SearchMemory(
             self.search,
@@ -163,6 +165,8 @@ class _Loop:
             t = time.perf_counter()
             proposal = self.consult.ask(anomaly, backend, asked)
             self.llm_time += time.perf_counter() - t
+            if self.observer is not None:
+                self.observer.answered(len(self.rounds) - 1, proposal)
             self.rounds[-1] = replace(rnd, proposal=proposal)
             self.record()
             if not proposal.ok:
@@ -224,10 +228,16 @@ class _Loop:
         )
 
     def record(self, result: LoopResult | None = None) -> None:
-        """Hand the record so far (or the final one) to ``on_round`` (which saves it)."""
+        """Hand the record so far (or the final one) to ``on_round`` (which saves it) and to
+        the observer."""
+        if self.on_round is None and self.observer is None:
+            return
+        running = f"running: {len(self.rounds)} rounds so far"
+        record = result or self.end(False, running, LoopStatus.RUNNING)
         if self.on_round is not None:
-            running = f"running: {len(self.rounds)} rounds so far"
-            self.on_round(result or self.end(False, running, LoopStatus.RUNNING))
+            self.on_round(record)
+        if self.observer is not None:
+            self.observer.recorded(record)
 
     def expired(self) -> bool:
         return self.deadline is not None and self.clock() - self.start >= self.deadline
@@ -247,6 +257,7 @@ def close_loop(
     settings: LoopSettings,
     on_round: OnRound | None = None,
     clock: Callable[[], float] = time.monotonic,
+    observer: Observer | None = None,
 ) -> LoopResult:
     """Run the closed loop on an open ``session``. ``llm``: a factory of the session (a
     labelled oracle, which reads the world's truth, say), or a backend (read as
@@ -255,9 +266,13 @@ def close_loop(
     ``on_round`` gets the record after every plan-and-execute step and every LLM answer
     (status ``running``), and the final one; when an LLM error, a crash or an interrupt ends
     the loop it gets the rounds run so far with the error recorded, and the exception goes on.
-    ``settings.deadline`` (seconds on ``clock``) stops the loop cleanly between steps."""
+    ``settings.deadline`` (seconds on ``clock``) stops the loop cleanly between steps.
+    ``observer`` (:class:`~llmpas.system.observe.Observer`) is told of every plan, tick,
+    round, consultation and record (None: nobody watches, nothing is built for a viewer)."""
     factory = as_factory(llm)
-    loop = _Loop(session, settings, on_round=on_round, clock=clock)
+    loop = _Loop(session, settings, on_round=on_round, clock=clock, observer=observer)
+    if observer is not None:
+        observer.started(session)
     try:
         backend = factory(session)
         loop.answered_by(backend)
