@@ -329,3 +329,40 @@ def test_a_world_without_geometry_is_drawn_from_its_places_and_facts() -> None:
         assert isinstance(session, TrueFacts)
         true_on = {a.args[0] for a in session.true_facts() if a.predicate == location}
         assert {s.name for s in view.truth} == true_on
+
+
+# ----------------------------------------------------------------------- throttling
+
+
+def _counts(path: Path) -> dict[str, int]:
+    counts: dict[str, int] = {}
+    for _schema, channel, _message in _messages(path):
+        counts[channel.topic] = counts.get(channel.topic, 0) + 1
+    return counts
+
+
+@pytest.mark.parametrize("period", [0.0, 1e9])
+def test_the_scene_is_throttled_and_nothing_else_is_dropped(period: float, tmp_path: Path) -> None:
+    """A clock that never moves: with a period the scene goes out only at each round's start
+    and end (and once at the start); without one, at every tick too. Tree, plan, anomaly and
+    LLM messages are the same either way: one per tick, anomaly, prompt and answer."""
+    from llmpas.experiments.worlds import llm_for, load_world
+    from llmpas.system import run
+
+    path = tmp_path / "run.mcap"
+    with FoxgloveSink(path, scene_period=period, clock=lambda: 0.0) as sink:
+        result = run(load_world("household"), HOUSEHOLD, llm_for("oracle", None, "household"),
+                     observer=sink)  # fmt: skip
+    counts = _counts(path)
+    rounds = len(result.rounds)
+    ticks = sum(r.episode.ticks for r in result.rounds if r.episode is not None)
+    forced = 1 + 2 * rounds
+    assert counts["/llmpas/scene"] == (forced if period else forced + ticks)
+    assert counts["/llmpas/tree"] == ticks
+    assert counts["/llmpas/anomaly"] == sum(
+        1 for r in result.rounds if r.episode and r.episode.anomaly
+    )
+    exchanges = sum(len(r.proposal.exchanges) for r in result.rounds if r.proposal)
+    verdicts = sum(1 for r in result.rounds if r.proposal)
+    assert counts["/llmpas/llm"] == 2 * exchanges + verdicts
+    assert counts["/llmpas/plan"] >= rounds
