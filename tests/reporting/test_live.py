@@ -366,3 +366,30 @@ def test_the_scene_is_throttled_and_nothing_else_is_dropped(period: float, tmp_p
     verdicts = sum(1 for r in result.rounds if r.proposal)
     assert counts["/llmpas/llm"] == 2 * exchanges + verdicts
     assert counts["/llmpas/plan"] >= rounds
+
+
+# ----------------------------------------------------------------------- the layout and the picture
+
+
+def test_the_shipped_layout_is_the_one_built_and_shows_the_channels(main_job: Path) -> None:
+    from llmpas.reporting.live import LAYOUT, layout
+
+    shipped = json.loads((ROOT / "docs" / "foxglove-layout.json").read_text())
+    assert shipped == json.loads(layout())  # docs/ is regenerated when the layout changes
+    assert json.loads((main_job / LAYOUT).read_text()) == shipped  # beside every run.mcap
+    text = json.dumps(shipped)
+    for topic in TOPICS:
+        if topic != "/llmpas/tf":  # the 3-D panel reads the frames by itself
+            assert f'"{topic}' in text, topic
+
+
+def test_the_main_jobs_run_mcap_is_drawn(main_job: Path, tmp_path: Path) -> None:
+    pytest.importorskip("mcap_protobuf")
+    from llmpas.reporting.mcap_picture import draw, read
+
+    got = read(main_job / "run.mcap")
+    assert got.anomalies and got.verdicts and got.scenes and got.truths and got.frames
+    names = {e.id for e in got.scenes[0][1].entities}
+    assert any(n.startswith("believed/place/") for n in names)
+    png = draw(main_job / "run.mcap", tmp_path / "live.png")
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

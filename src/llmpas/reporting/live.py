@@ -44,6 +44,7 @@ from foxglove import channels as fc
 from foxglove import messages as fm
 
 from llmpas.execution.executor import Tick
+from llmpas.files import atomic_write
 from llmpas.language.logic import Atom
 from llmpas.planning import PlanResult
 from llmpas.reasoning.methods import Proposal
@@ -55,6 +56,7 @@ log = logging.getLogger(__name__)
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8765
 SCENE_PERIOD = 0.2  # seconds between scene updates while a tree ticks
+LAYOUT = "foxglove-layout.json"  # written beside run.mcap (and shipped in docs/)
 TOPICS = (
     "/llmpas/scene",
     "/llmpas/scene/truth",
@@ -314,6 +316,66 @@ def transforms(frames: Sequence[Pose3]) -> fm.FrameTransforms:
     )
 
 
+# ------------------------------------------------------------------------------ the layout
+
+
+def layout() -> str:
+    """The Foxglove layout for these channels (JSON, built with ``foxglove.layouts``): the 3-D
+    scene (believed and true layers) beside the plan and the tree, the LLM's exchanges and the
+    anomaly in tabs, the loop's status and the log below."""
+    import foxglove.layouts as fl
+
+    def raw(topic: str, title: str) -> Any:
+        return fl.RawMessagesPanel(
+            title=title, config=fl.RawMessagesConfig(topic_path=topic, expansion="all")
+        )
+
+    def split(direction: str, *items: tuple[float, Any]) -> Any:
+        return fl.SplitContainer(
+            direction=direction,  # type: ignore[arg-type]
+            items=[fl.SplitItem(proportion=w, content=c) for w, c in items],
+        )
+
+    scene = fl.ThreeDeePanel(
+        title="scene: believed (solid) and true (faint)",
+        config=fl.ThreeDeeConfig(
+            follow_tf="world",
+            topics={
+                "/llmpas/scene": fl.BaseRendererSceneUpdateTopicSettings(visible=True),
+                "/llmpas/scene/truth": fl.BaseRendererSceneUpdateTopicSettings(visible=True),
+            },
+            layers={"grid": fl.BaseRendererGridLayerSettings(visible=True, frame_id="world")},
+        ),
+    )
+    tabs = fl.TabContainer(
+        tabs=[
+            fl.TabItem(title="LLM", content=raw("/llmpas/llm", "prompts, answers, verdicts")),
+            fl.TabItem(title="anomaly", content=raw("/llmpas/anomaly", "anomaly reports")),
+            fl.TabItem(title="belief", content=raw("/llmpas/belief.facts", "believed facts")),
+        ]
+    )
+    status = fl.StateTransitionsPanel(
+        title="loop",
+        config=fl.StateTransitionsConfig(
+            paths=[
+                fl.StateTransitionsSeries(value="/llmpas/loop.status", label="loop"),
+                fl.StateTransitionsSeries(value="/llmpas/tree.status", label="tree"),
+                fl.StateTransitionsSeries(value="/llmpas/plan.goal", label="goal"),
+            ]
+        ),
+    )
+    log = fl.LogPanel(title="log", config=fl.LogConfig(topic_to_render="/llmpas/log"))
+    right = split(
+        "column",
+        (1.0, raw("/llmpas/plan", "plan (current: the steps running)")),
+        (1.0, raw("/llmpas/tree", "behaviour tree")),
+        (1.2, tabs),
+    )
+    top = split("row", (1.4, scene), (1.0, right))
+    content = split("column", (3.0, top), (1.0, split("row", (1.0, status), (1.0, log))))
+    return fl.Layout(content=content).to_json()
+
+
 # ------------------------------------------------------------------------------ the sink
 
 
@@ -379,6 +441,7 @@ class FoxgloveSink:
     def __enter__(self) -> FoxgloveSink:
         if self.mcap_path is not None:
             self.mcap_path.parent.mkdir(parents=True, exist_ok=True)
+            atomic_write(self.mcap_path.parent / LAYOUT, layout())
             self.writer = foxglove.open_mcap(
                 self.mcap_path, allow_overwrite=True, context=self.context
             )
@@ -539,11 +602,13 @@ class FoxgloveSink:
 __all__ = [
     "DEFAULT_HOST",
     "DEFAULT_PORT",
+    "LAYOUT",
     "TOPICS",
     "FoxgloveSink",
     "LiveAddress",
     "LiveError",
     "json_schemas",
+    "layout",
     "parse_address",
     "scene_of",
     "scene_update",
