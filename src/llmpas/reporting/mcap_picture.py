@@ -33,16 +33,16 @@ class Read:
     status: str = ""
 
 
-class _JSON:
-    """mcap's decoder factory for the JSON channels."""
-
-    def decoder_for(self, message_encoding: str, schema: Any) -> Any:
-        return json.loads if message_encoding == "json" else None
-
-
 def read(path: Path) -> Read:
+    from mcap.decoder import DecoderFactory as Factory
     from mcap.reader import make_reader
     from mcap_protobuf.decoder import DecoderFactory
+
+    class _JSON(Factory):
+        """mcap's decoder factory for the JSON channels."""
+
+        def decoder_for(self, message_encoding: str, schema: Any) -> Any:
+            return json.loads if message_encoding == "json" else None
 
     out = Read()
     with path.open("rb") as f:
