@@ -393,3 +393,15 @@ def test_the_main_jobs_run_mcap_is_drawn(main_job: Path, tmp_path: Path) -> None
     assert any(n.startswith("believed/place/") for n in names)
     png = draw(main_job / "run.mcap", tmp_path / "live.png")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_the_bench_runs_the_main_job_with_and_without_the_sink(tmp_path: Path) -> None:
+    pytest.importorskip("pybullet")
+    out = tmp_path / "live.json"
+    assert main(["bench", "live", "--repeats", "1", "--json", str(out)]) == 0
+    got = json.loads(out.read_text())
+    assert got["same"] and got["complete"]
+    assert got["ratio"] > 0 and got["sink_seconds"] > 0
+    (with_sink,) = got["runs"]["with"]
+    assert with_sink["topics"]["/llmpas/anomaly"] == 1
+    assert with_sink["mcap_prompts"] == with_sink["prompts"] > 0

@@ -2,9 +2,10 @@
 object-loss --out ...``) runs with and without the Foxglove MCAP sink
 (:class:`~llmpas.reporting.live.FoxgloveSink`), alternately, ``--repeats`` times each, with the
 same scenario, LLM and seed, each into a run folder of its own; the table gives the median wall
-time of each and their ratio, measured in one run, with the MCAP's size and message count and the
-machine's load average. The two must give the same rounds and goals, and the MCAP must hold an
-anomaly and every prompt of its run, else the benchmark fails."""
+time of each and their ratio, measured in one run, and the time spent inside the sink's calls
+(its share of the run), with the MCAP's size and message count and the machine's load average.
+The two must give the same rounds and goals, and the MCAP must hold an anomaly and every prompt
+of its run, else the benchmark fails."""
 
 from __future__ import annotations
 
@@ -37,6 +38,28 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", help="write the measurements to this JSON file")
 
 
+class _Timed:
+    """An observer that forwards every call to ``inner`` and counts the seconds spent in it."""
+
+    def __init__(self, inner: Any) -> None:
+        self.inner = inner
+        self.seconds = 0.0
+        self.calls = 0
+
+    def __getattr__(self, name: str) -> Any:
+        method = getattr(self.inner, name)
+
+        def timed(*args: Any) -> Any:
+            t = time.perf_counter()
+            try:
+                return method(*args)
+            finally:
+                self.seconds += time.perf_counter() - t
+                self.calls += 1
+
+        return timed
+
+
 def _once(
     scenario: str, llm: str, folder: Path, sink: bool, period: float | None
 ) -> dict[str, Any]:
@@ -47,10 +70,12 @@ def _once(
     world = world_of(scenario)
     mcap = folder / "run.mcap"
     t0 = time.perf_counter()
+    timed = None
     if sink:
         with FoxgloveSink(mcap, scene_period=SCENE_PERIOD if period is None else period) as s:
+            timed = _Timed(s)
             result = run(load_world(world), scenario, llm_for(llm, None, world), out=folder,
-                         observer=s)  # fmt: skip
+                         observer=timed)  # fmt: skip
     else:
         result = run(load_world(world), scenario, llm_for(llm, None, world), out=folder)
     wall = time.perf_counter() - t0
@@ -60,8 +85,8 @@ def _once(
         "success": result.success,
         "prompts": sum(len(r.proposal.exchanges) for r in result.rounds if r.proposal),
     }
-    if sink:
-        out |= _contents(mcap)
+    if timed is not None:
+        out |= _contents(mcap) | {"sink": timed.seconds, "sink_calls": timed.calls}
     return out
 
 
@@ -109,6 +134,8 @@ def command(args: argparse.Namespace, console: Console) -> int:
     for col in ("measure (median)", "without", "with run.mcap", "ratio"):
         table.add_column(col)
     table.add_row("run wall time", f"{without:.2f} s", f"{with_sink:.2f} s", f"{ratio:.3f}x")
+    sink = statistics.median(r["sink"] for r in runs["with"])
+    table.add_row("in the sink's calls", "", f"{sink * 1000:.1f} ms", f"{sink / with_sink:.2%}")
     console.print(table)
     last = runs["with"][-1]
     console.print(
@@ -129,6 +156,7 @@ def command(args: argparse.Namespace, console: Console) -> int:
             "without": without,
             "with": with_sink,
             "ratio": ratio,
+            "sink_seconds": sink,
             "same": same,
             "complete": complete,
             "load": list(load),
