@@ -345,20 +345,31 @@ def _counts(path: Path) -> dict[str, int]:
 def test_the_scene_is_throttled_and_nothing_else_is_dropped(period: float, tmp_path: Path) -> None:
     """A clock that never moves: with a period the scene goes out only at each round's start
     and end (and once at the start); without one, at every tick too. Tree, plan, anomaly and
-    LLM messages are the same either way: one per tick, anomaly, prompt and answer."""
+    LLM messages are the same either way: one per tick that changed the tree, one per anomaly,
+    prompt and answer."""
     from llmpas.experiments.worlds import llm_for, load_world
     from llmpas.system import run
 
+    class Sink(FoxgloveSink):  # the sink, with every tick it was told of
+        ticks: list[tuple[int, Any]]
+
+        def ticked(self, index: int, tick: Any) -> None:
+            self.ticks.append((index, (tick.nodes, tick.steps, tick.status)))
+            super().ticked(index, tick)
+
     path = tmp_path / "run.mcap"
-    with FoxgloveSink(path, scene_period=period, clock=lambda: 0.0) as sink:
+    with Sink(path, scene_period=period, clock=lambda: 0.0) as sink:
+        sink.ticks = []
         result = run(load_world("household"), HOUSEHOLD, llm_for("oracle", None, "household"),
                      observer=sink)  # fmt: skip
     counts = _counts(path)
     rounds = len(result.rounds)
     ticks = sum(r.episode.ticks for r in result.rounds if r.episode is not None)
+    assert len(sink.ticks) == ticks
+    changed = [t for k, t in enumerate(sink.ticks) if k == 0 or t != sink.ticks[k - 1]]
     forced = 1 + 2 * rounds
     assert counts["/llmpas/scene"] == (forced if period else forced + ticks)
-    assert counts["/llmpas/tree"] == ticks
+    assert counts["/llmpas/tree"] == len(changed)  # a tick that changed nothing is folded
     assert counts["/llmpas/anomaly"] == sum(
         1 for r in result.rounds if r.episode and r.episode.anomaly
     )
@@ -405,3 +416,18 @@ def test_the_bench_runs_the_main_job_with_and_without_the_sink(tmp_path: Path) -
     (with_sink,) = got["runs"]["with"]
     assert with_sink["topics"]["/llmpas/anomaly"] == 1
     assert with_sink["mcap_prompts"] == with_sink["prompts"] > 0
+
+
+def test_ticks_that_change_nothing_are_folded_into_the_next(tmp_path: Path) -> None:
+    from llmpas.execution.executor import Tick
+
+    running = (("plan", "RUNNING", 0), ("move", "RUNNING", 1))
+    done = (("plan", "SUCCESS", 0), ("move", "SUCCESS", 1))
+    ticks = [Tick(1, running, (0,), "RUNNING"), Tick(2, running, (0,), "RUNNING"),
+             Tick(3, running, (0,), "RUNNING"), Tick(4, done, (0,), "SUCCESS")]  # fmt: skip
+    path = tmp_path / "run.mcap"
+    with FoxgloveSink(path) as sink:
+        for t in ticks:
+            sink.ticked(0, t)
+    sent = [json.loads(m.data) for _, c, m in _messages(path) if c.topic == "/llmpas/tree"]
+    assert [(m["tick"], m["folded"]) for m in sent] == [(1, 0), (4, 2)]

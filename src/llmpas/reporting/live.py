@@ -11,7 +11,7 @@ topic                      schema                           what
 ``/llmpas/scene``          ``foxglove.SceneUpdate``         places, objects where believed
 ``/llmpas/scene/truth``    ``foxglove.SceneUpdate``         objects where they truly are
 ``/llmpas/tf``             ``foxglove.FrameTransforms``     the robot's frames (where known)
-``/llmpas/tree``           ``llmpas.Tick`` (JSON)           every node's status, every tick
+``/llmpas/tree``           ``llmpas.Tick`` (JSON)           every node's status, per tick
 ``/llmpas/plan``           ``llmpas.Plan`` (JSON)           the plan, the steps running
 ``/llmpas/anomaly``        ``llmpas.Anomaly`` (JSON)        each anomaly report
 ``/llmpas/llm``            ``llmpas.LLM`` (JSON)            each prompt, answer and verdict
@@ -21,7 +21,9 @@ topic                      schema                           what
 =========================  ===============================  ==================================
 
 The scene (and the belief read with it) is throttled to one update per ``scene_period`` seconds
-while a tree ticks, and sent at every round's start and end; nothing else is ever dropped.
+while a tree ticks, and sent at every round's start and end; a tick that changes no node's
+status (one that only polls a running skill) is counted in the next tick sent (``folded``);
+nothing else is ever dropped.
 A world whose session is a :class:`~llmpas.worlds.api.SceneGeometry` is drawn in metres; any
 other is drawn from its search model's places and the believed (and true) ``location`` facts.
 """
@@ -148,6 +150,10 @@ def json_schemas() -> dict[str, tuple[str, dict[str, Any]]]:
                     "status": _STR,
                     "steps": {"type": "array", "items": _INT},
                     "nodes": {"type": "array", "items": node},
+                    "folded": {
+                        "type": "integer",
+                        "description": "ticks before this one that changed nothing (not sent)",
+                    },
                 },
                 ["round", "tick", "status", "nodes"],
             ),
@@ -418,6 +424,8 @@ class FoxgloveSink:
         self.running: tuple[int, ...] | None = None
         self.plans: dict[int, dict[str, Any]] = {}
         self.round = 0
+        self.last_tick: tuple[Any, ...] | None = None  # the last tree sent
+        self.folded = 0  # ticks since then that changed nothing
         self._channels()
 
     def _channels(self) -> None:
@@ -544,7 +552,14 @@ class FoxgloveSink:
         self._scene(force=True)
 
     def ticked(self, index: int, tick: Tick) -> None:
-        self._json("/llmpas/tree", {"round": index, **tick.to_json()})
+        same = (index, tick.nodes, tick.steps, tick.status)
+        if same == self.last_tick:  # a tick that only polled a running skill: folded
+            self.folded += 1
+        else:
+            self.last_tick = same
+            message = {"round": index, **tick.to_json(), "folded": self.folded}
+            self._json("/llmpas/tree", message)
+            self.folded = 0
         if tick.steps != self.running and index in self.plans:
             self.running = tick.steps
             plan = self.plans[index]
