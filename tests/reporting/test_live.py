@@ -5,6 +5,7 @@ WebSocket protocol by a client written here, the main job's ``run.mcap`` read ba
 from __future__ import annotations
 
 import json
+import math
 import os
 import socket
 import struct
@@ -396,12 +397,24 @@ def test_the_shipped_layout_is_the_one_built_and_shows_the_channels(main_job: Pa
 
 def test_the_main_jobs_run_mcap_is_drawn(main_job: Path, tmp_path: Path) -> None:
     pytest.importorskip("mcap_protobuf")
-    from llmpas.reporting.mcap_picture import draw, read
+    from llmpas.reporting.mcap_picture import at, draw, read
 
     got = read(main_job / "run.mcap")
     assert got.anomalies and got.verdicts and got.scenes and got.truths and got.frames
     names = {e.id for e in got.scenes[0][1].entities}
     assert any(n.startswith("believed/place/") for n in names)
+    # the PyBullet world's own geometry: at the anomaly the cube is believed where it is not
+    anomaly_t = got.anomalies[0][0]
+
+    def cube(update: Any, layer: str) -> tuple[float, float]:
+        (e,) = [e for e in update.entities if e.id == f"{layer}/object/cube"]
+        return e.cubes[0].pose.position.x, e.cubes[0].pose.position.y
+
+    believed = cube(at(got.scenes, anomaly_t), "believed")
+    true = cube(at(got.truths, anomaly_t), "truth")
+    assert math.dist(believed, true) > 0.5
+    frames = {f.child_frame_id for f in at(got.frames, anomaly_t).transforms}
+    assert {"base_link", "gripper", "panda_link1", "panda_hand"} <= frames
     png = draw(main_job / "run.mcap", tmp_path / "live.png")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
@@ -431,3 +444,32 @@ def test_ticks_that_change_nothing_are_folded_into_the_next(tmp_path: Path) -> N
             sink.ticked(0, t)
     sent = [json.loads(m.data) for _, c, m in _messages(path) if c.topic == "/llmpas/tree"]
     assert [(m["tick"], m["folded"]) for m in sent] == [(1, 0), (4, 2)]
+
+
+def test_a_users_world_written_only_against_the_protocol_gets_the_channels(tmp_path: Path) -> None:
+    """The library world of tests/worlds/test_protocol.py (no geometry, no truth): its shelves
+    and the believed atlas on the scene channel, the tree, the plan, the anomaly and the LLM; no
+    truth layer, no frames."""
+    import py_trees
+
+    from llmpas.system import LoopSettings, run
+
+    from ..worlds.test_protocol import Library, Scripted
+
+    py_trees.blackboard.Blackboard.clear()
+    path = tmp_path / "run.mcap"
+    llm = Scripted("(and (inspected shelf3))")
+    with FoxgloveSink(path) as sink:
+        result = run(Library(), "atlas-on-shelf3", llm, LoopSettings(), observer=sink)
+    py_trees.blackboard.Blackboard.clear()
+    assert result.success
+    counts = _counts(path)
+    for topic in WATCHED:
+        assert counts.get(topic, 0) >= 1, topic
+    assert "/llmpas/scene/truth" not in counts and "/llmpas/tf" not in counts
+    pytest.importorskip("mcap_protobuf")
+    from llmpas.reporting.mcap_picture import read
+
+    first = read(path).scenes[0][1]
+    ids = {e.id for e in first.entities}
+    assert ids == {f"believed/place/shelf{i}" for i in (1, 2, 3)} | {"believed/object/atlas"}

@@ -65,7 +65,7 @@ def read(path: Path) -> Read:
     return out
 
 
-def _at(items: Sequence[tuple[int, Any]], t: float) -> Any:
+def at(items: Sequence[tuple[int, Any]], t: float) -> Any:
     """The last item logged at or before ``t`` (the first one if none)."""
     before = [m for s, m in items if s <= t]
     return before[-1] if before else (items[0][1] if items else None)
@@ -115,8 +115,8 @@ def _draw_scene(ax: Any, scene: Any, truth: Any, frames: Any, title: str) -> Non
     objects(scene, False)
     objects(truth, True)
     for f in frames.transforms if frames is not None else []:
-        if f.parent_frame_id != "world":
-            continue
+        if f.parent_frame_id != "world" or f.child_frame_id not in ("base_link", "gripper"):
+            continue  # the arm's links would crowd a view from above
         x, y = f.translation.x, f.translation.y
         if f.child_frame_id == "base_link":
             yaw = _yaw(f.rotation)
@@ -151,10 +151,10 @@ def draw(path: str | Path, png: str | Path) -> Path:
     first, last = fig.add_subplot(grid[0, 0]), fig.add_subplot(grid[0, 1])
     what = r.anomalies[0][1]["text"] if r.anomalies else "no anomaly"
     short = what if len(what) < 90 else what[:87] + "..."
-    _draw_scene(first, _at(r.scenes, anomaly_t), _at(r.truths, anomaly_t),
-                _at(r.frames, anomaly_t), f"/llmpas/scene at the anomaly\n{short}")  # fmt: skip
+    _draw_scene(first, at(r.scenes, anomaly_t), at(r.truths, anomaly_t),
+                at(r.frames, anomaly_t), f"/llmpas/scene at the anomaly\n{short}")  # fmt: skip
     goals = " ".join(r.verdicts[-1][1].get("goals", [])) if r.verdicts else ""
-    _draw_scene(last, _at(r.scenes, end_t), _at(r.truths, end_t), _at(r.frames, end_t),
+    _draw_scene(last, at(r.scenes, end_t), at(r.truths, end_t), at(r.frames, end_t),
                 f"/llmpas/scene at the end ({r.status})\nLLM goals: {goals}")  # fmt: skip
     ax = fig.add_subplot(grid[1, :])
     topics = sorted(r.times)
@@ -192,4 +192,4 @@ if __name__ == "__main__":
     sys.exit(main())
 
 
-__all__ = ["Read", "draw", "read"]
+__all__ = ["Read", "at", "draw", "read"]

@@ -1,10 +1,12 @@
 """The PyBullet world's scene for a viewer (:class:`~llmpas.worlds.api.SceneView`): its tables,
 its objects where the robot believes them (their ``atpose`` values) and where the simulator has
-them, the robot's base and gripper frames."""
+them, the robot's base and gripper frames and the arm's links."""
 
 from __future__ import annotations
 
 import math
+
+import pybullet as p
 
 from llmpas.execution.context import Belief
 from llmpas.worlds.api import Pose3, SceneView, Shape
@@ -52,7 +54,20 @@ def scene_view(scene: Scene, belief: Belief) -> SceneView:
     quat = tuple(float(a) for a in q)
     norm = math.sqrt(sum(a * a for a in quat)) or 1.0
     gripper = Pose3("gripper", "world", _floats(ee), tuple(a / norm for a in quat))  # type: ignore[arg-type]
-    return SceneView(tuple(tables + believed), tuple(truth), (base, gripper))
+    return SceneView(tuple(tables + believed), tuple(truth), (base, gripper, *arm(scene)))
+
+
+def arm(scene: Scene) -> list[Pose3]:
+    """The arm's links (``panda_link1`` ... ``panda_hand``), each in the frame ``world``."""
+    c, body = scene.client, scene.panda
+    frames = []
+    for j in range(p.getNumJoints(body, physicsClientId=c)):
+        name = p.getJointInfo(body, j, physicsClientId=c)[12].decode()
+        state = p.getLinkState(body, j, computeForwardKinematics=True, physicsClientId=c)
+        xyz, q = _floats(state[4]), tuple(float(a) for a in state[5])
+        norm = math.sqrt(sum(a * a for a in q)) or 1.0
+        frames.append(Pose3(name, "world", xyz, tuple(a / norm for a in q)))  # type: ignore[arg-type]
+    return frames
 
 
 __all__ = ["scene_view"]
