@@ -473,3 +473,27 @@ def test_a_users_world_written_only_against_the_protocol_gets_the_channels(tmp_p
     first = read(path).scenes[0][1]
     ids = {e.id for e in first.entities}
     assert ids == {f"believed/place/shelf{i}" for i in (1, 2, 3)} | {"believed/object/atlas"}
+
+
+def test_an_interrupted_run_leaves_a_complete_run_mcap(tmp_path: Path) -> None:
+    """Ctrl-C while the LLM is asked: the sink closes run.mcap (its summary written) and its
+    last loop message says the run was interrupted."""
+    from llmpas.experiments.worlds import load_world
+    from llmpas.reasoning.llm import Request, Response
+    from llmpas.system import run
+
+    class Interrupted:
+        name = "interrupted"
+
+        def complete(self, request: Request) -> Response:
+            raise KeyboardInterrupt
+
+    path = tmp_path / "run.mcap"
+    with pytest.raises(KeyboardInterrupt), FoxgloveSink(path) as sink:
+        run(load_world("household"), HOUSEHOLD, Interrupted(), observer=sink)
+    with path.open("rb") as f:
+        summary = mcap_reader.make_reader(f).get_summary()
+    assert summary is not None and summary.statistics is not None
+    loop = [json.loads(m.data) for _, c, m in _messages(path) if c.topic == "/llmpas/loop"]
+    assert loop[-1]["status"] == "interrupted"
+    assert _counts(path)["/llmpas/anomaly"] == 1
