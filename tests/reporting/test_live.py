@@ -497,3 +497,36 @@ def test_an_interrupted_run_leaves_a_complete_run_mcap(tmp_path: Path) -> None:
     loop = [json.loads(m.data) for _, c, m in _messages(path) if c.topic == "/llmpas/loop"]
     assert loop[-1]["status"] == "interrupted"
     assert _counts(path)["/llmpas/anomaly"] == 1
+
+
+def test_exchanges_not_told_as_they_happened_are_written_once_with_the_verdict(
+    tmp_path: Path,
+) -> None:
+    """The prompts and answers go out live (``prompted``, ``replied``); any exchange of the
+    consultation the sink was not told of (a request that never reached the LLM's wrapper)
+    goes out with the verdict, so the LLM channel always holds each exchange once."""
+    from llmpas.experiments.worlds import llm_for, load_world
+    from llmpas.system import run
+
+    class Deaf(FoxgloveSink):  # told of no request while it happened
+        def prompted(self, index: int, request: Any) -> None:
+            if self.publishing:
+                super().prompted(index, request)
+
+        def replied(self, index: int, request: Any, response: Any) -> None:
+            pass
+
+        def answered(self, index: int, proposal: Any) -> None:
+            self.publishing = True
+            super().answered(index, proposal)
+            self.publishing = False
+
+    path = tmp_path / "run.mcap"
+    with Deaf(path) as sink:
+        sink.publishing = False
+        result = run(load_world("household"), HOUSEHOLD, llm_for("oracle", None, "household"),
+                     observer=sink)  # fmt: skip
+    llm = [json.loads(m.data) for _, c, m in _messages(path) if c.topic == "/llmpas/llm"]
+    exchanges = [e for r in result.rounds if r.proposal for e in r.proposal.exchanges]
+    assert [m["text"] for m in llm if m["kind"] == "answer"] == [e.response.text for e in exchanges]
+    assert len([m for m in llm if m["kind"] == "prompt"]) == len(exchanges)

@@ -10,6 +10,7 @@ import pytest
 
 from llmpas.execution.executor import Tick
 from llmpas.planning import PlanResult
+from llmpas.reasoning.llm import Request, Response
 from llmpas.reasoning.methods import Proposal
 from llmpas.system import NoObserver, Observer, run
 from llmpas.system.records import LoopResult, LoopStatus, Round
@@ -35,6 +36,12 @@ class Seen:
 
     def executed(self, index: int, rnd: Round) -> None:
         self.calls.append(("executed", (index, rnd)))
+
+    def prompted(self, index: int, request: Request) -> None:
+        self.calls.append(("prompted", (index, request)))
+
+    def replied(self, index: int, request: Request, response: Response) -> None:
+        self.calls.append(("replied", (index, request, response)))
 
     def answered(self, index: int, proposal: Proposal) -> None:
         self.calls.append(("answered", (index, proposal)))
@@ -78,6 +85,15 @@ def test_the_loop_tells_its_observer_every_step_in_order() -> None:
     k = asked[0][0]
     at = seen.calls.index(("answered", asked[0]))
     assert seen.calls.index(("executed", (k, executed[k][1]))) < at
+    # each request told when sent and when answered, before the consultation is done: the
+    # proposal's exchanges, in order
+    exchanges = [(k, e.request, e.response) for e in asked[0][1].exchanges]
+    assert [(i, r) for i, r in seen.of("prompted")] == [(i, r) for i, r, _ in exchanges]
+    replied = seen.of("replied")
+    assert [(i, r, a.text) for i, r, a in replied] == [(i, r, a.text) for i, r, a in exchanges]
+    for i, r, a in replied:
+        assert seen.calls.index(("prompted", (i, r))) < seen.calls.index(("replied", (i, r, a)))
+        assert seen.calls.index(("replied", (i, r, a))) < at
     # the records: running while the loop runs, the judged result last
     records = seen.of("recorded")
     assert all(r.status is LoopStatus.RUNNING for r in records[:-2])

@@ -49,6 +49,7 @@ from llmpas.execution.executor import Tick
 from llmpas.files import atomic_write
 from llmpas.language.logic import Atom
 from llmpas.planning import PlanResult
+from llmpas.reasoning.llm import Request, Response
 from llmpas.reasoning.methods import Proposal
 from llmpas.system.records import LoopResult, Round
 from llmpas.worlds.api import Pose3, SceneGeometry, SceneView, Session, Shape, TrueFacts
@@ -426,6 +427,7 @@ class FoxgloveSink:
         self.round = 0
         self.last_tick: tuple[Any, ...] | None = None  # the last tree sent
         self.folded = 0  # ticks since then that changed nothing
+        self.told: dict[str, int] = {}  # requests answered live, by key, not yet in a proposal
         self._channels()
 
     def _channels(self) -> None:
@@ -578,14 +580,29 @@ class FoxgloveSink:
         self._line(f"round {index}: executed: {status}")
         self._scene(force=True)
 
+    def prompted(self, index: int, request: Request) -> None:
+        messages = [{"role": m.role, "content": m.content} for m in request.messages]
+        prompt = {"round": index, "kind": "prompt", "tag": request.tag, "messages": messages}
+        self._json("/llmpas/llm", prompt)
+        self._line(f"round {index}: asked the LLM ({request.tag})")
+
+    def replied(self, index: int, request: Request, response: Response) -> None:
+        key = request.key()
+        self.told[key] = self.told.get(key, 0) + 1
+        answer = {"kind": "answer", "text": response.text, "model": response.model}
+        self._json("/llmpas/llm", {"round": index, "tag": request.tag, **answer})
+
     def answered(self, index: int, proposal: Proposal) -> None:
         p = proposal
-        for e in p.exchanges:
-            messages = [{"role": m.role, "content": m.content} for m in e.request.messages]
-            base = {"round": index, "tag": e.tag, "method": p.method}
-            self._json("/llmpas/llm", {**base, "kind": "prompt", "messages": messages})
+        for e in p.exchanges:  # each exchange once: those not told as they happened, now
+            key = e.request.key()
+            if self.told.get(key, 0) > 0:
+                self.told[key] -= 1
+                continue
+            self.prompted(index, e.request)
             answer = {"kind": "answer", "text": e.response.text, "model": e.response.model}
-            self._json("/llmpas/llm", {**base, **answer})
+            self._json("/llmpas/llm", {"round": index, "tag": e.request.tag, **answer})
+        self.told.clear()
         verdict = {
             "round": index,
             "kind": "verdict",

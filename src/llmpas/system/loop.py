@@ -30,6 +30,7 @@ from llmpas.system.backends import (
     LLMFactory,
     LLMFor,
     Once,
+    Watched,
     as_factory,
     fixed,
     who,
@@ -107,6 +108,13 @@ class _Loop:
 
     def run(self, backend: LLM) -> LoopResult:
         backend = Once(backend)  # an identical request is never sent twice in one run
+        seen = self.observer
+        if seen is not None:  # each request told when sent and when answered
+            backend = Watched(
+                backend,
+                lambda request: seen.prompted(len(self.rounds) - 1, request),
+                lambda request, response: seen.replied(len(self.rounds) - 1, request, response),
+            )
         goal, text = self.goals.task()
         on_task = True  # the round plans the task (with the recovery goals kept), not goals
         steps = 2 * self.max_rounds + 1  # the task, then per LLM round: goals + task

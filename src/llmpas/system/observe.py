@@ -3,8 +3,9 @@ view, a recording; :mod:`llmpas.reporting.live` is one), and :class:`NoObserver`
 which does nothing (a run without a viewer builds nothing for one).
 
 The loop calls an observer at fixed points: the session opened, a plan made, every tick of the
-behaviour tree, a round executed (its anomaly, the belief), a consultation answered (the prompts,
-the answers, the validator's verdict) and every record of the loop (its round and status). An
+behaviour tree, a round executed (its anomaly, the belief), each request to the LLM when it is
+sent and when it is answered, a consultation done (its exchanges, the validator's verdict) and
+every record of the loop (its round and status). An
 observer reads what it is given and the session it was handed; it never changes them.
 """
 
@@ -14,6 +15,7 @@ from typing import Protocol, runtime_checkable
 
 from llmpas.execution.executor import Tick
 from llmpas.planning import PlanResult
+from llmpas.reasoning.llm import Request, Response
 from llmpas.reasoning.methods import Proposal
 from llmpas.system.records import LoopResult, Round
 from llmpas.worlds.api import Session
@@ -39,8 +41,17 @@ class Observer(Protocol):
         """Round ``index`` executed (its episode, with the anomaly report if one stopped it)."""
         ...
 
+    def prompted(self, index: int, request: Request) -> None:
+        """A request sent to the LLM about round ``index``'s anomaly, before it answers."""
+        ...
+
+    def replied(self, index: int, request: Request, response: Response) -> None:
+        """The LLM's answer to ``request``."""
+        ...
+
     def answered(self, index: int, proposal: Proposal) -> None:
-        """The consultation after round ``index``: prompts, answers, the validator's verdict."""
+        """The consultation after round ``index``: its exchanges (each prompt and answer, those
+        told already included) and the validator's verdict."""
         ...
 
     def recorded(self, result: LoopResult) -> None:
@@ -61,6 +72,12 @@ class NoObserver:
         return None
 
     def executed(self, index: int, rnd: Round) -> None:
+        return None
+
+    def prompted(self, index: int, request: Request) -> None:
+        return None
+
+    def replied(self, index: int, request: Request, response: Response) -> None:
         return None
 
     def answered(self, index: int, proposal: Proposal) -> None:
