@@ -685,8 +685,10 @@ def _replan_run(
     folder = Path(args.out) / "replan-only"
     replan = _llm("replan", None, _world_name(args), args.method)
     status = escape(f"running {args.scenario} again with replan (no LLM) ...")
-    with console.status(status), _naming(scenario):
-        base = run(world, scenario, replan, settings, options, folder)
+    from llmpas.reporting.live import FoxgloveSink
+
+    with console.status(status), _naming(scenario), FoxgloveSink(folder / "run.mcap") as sink:
+        base = run(world, scenario, replan, settings, options, folder, None, sink)
     verdict = "task done" if base.success else "not done"
     console.print(f"replan only: {verdict}: {escape(printable(base.message, keep_newlines=False))}")
     build_report(folder, {"scenario": args.scenario, "world": world.title, "llm": "replan"})

@@ -530,3 +530,12 @@ def test_exchanges_not_told_as_they_happened_are_written_once_with_the_verdict(
     exchanges = [e for r in result.rounds if r.proposal for e in r.proposal.exchanges]
     assert [m["text"] for m in llm if m["kind"] == "answer"] == [e.response.text for e in exchanges]
     assert len([m for m in llm if m["kind"] == "prompt"]) == len(exchanges)
+
+
+def test_the_replan_only_run_has_its_run_mcap_too(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    assert main(["run", HOUSEHOLD, "--llm", "oracle", "--out", str(out), "--with-replan"]) == 0
+    for folder in (out, out / "replan-only"):
+        loop = [json.loads(m.data) for _, c, m in _messages(folder / "run.mcap")
+                if c.topic == "/llmpas/loop"]  # fmt: skip
+        assert loop[-1]["status"] == json.loads((folder / "loop.json").read_text())["status"]
