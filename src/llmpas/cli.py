@@ -442,8 +442,12 @@ def _cmd_execute(args: argparse.Namespace, console: Console) -> int:
     name = _world_name(args)
     world = load_world(name)
     scenario = _scenario_arg(name, args.scenario)
-    with console.status(f"planning and executing {args.scenario} ..."), _naming(scenario):
-        result = run_once(world, scenario, _options(args), args.out)
+    with (
+        console.status(f"planning and executing {args.scenario} ..."),
+        _naming(scenario),
+        _recorded(args.out) as observer,
+    ):
+        result = run_once(world, scenario, _options(args), args.out, observer)
     rnd = result.rounds[0]
     ep = rnd.episode
     if ep is None:
@@ -631,6 +635,18 @@ def _live_address(args: argparse.Namespace) -> Any:
         return parse_address(args.live)
     except LiveError as e:
         raise CliError(str(e)) from None
+
+
+@contextmanager
+def _recorded(out: str | None) -> Iterator[Any]:
+    """``OUT/run.mcap`` (the Foxglove channels) for a command's ``--out`` (None: no folder)."""
+    if not out:
+        yield None
+        return
+    from llmpas.reporting.live import FoxgloveSink
+
+    with FoxgloveSink(Path(out) / "run.mcap") as sink:
+        yield sink
 
 
 @contextmanager

@@ -539,3 +539,10 @@ def test_the_replan_only_run_has_its_run_mcap_too(tmp_path: Path) -> None:
         loop = [json.loads(m.data) for _, c, m in _messages(folder / "run.mcap")
                 if c.topic == "/llmpas/loop"]  # fmt: skip
         assert loop[-1]["status"] == json.loads((folder / "loop.json").read_text())["status"]
+
+
+def test_an_execute_folder_has_its_run_mcap(tmp_path: Path) -> None:
+    assert main(["execute", "nominal", "--out", str(tmp_path)]) == 0
+    counts = _counts(tmp_path / "run.mcap")
+    assert counts["/llmpas/plan"] >= 1 and counts["/llmpas/tree"] >= 1
+    assert "/llmpas/llm" not in counts  # no LLM in a single execution
