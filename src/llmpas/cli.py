@@ -442,8 +442,12 @@ def _cmd_execute(args: argparse.Namespace, console: Console) -> int:
     name = _world_name(args)
     world = load_world(name)
     scenario = _scenario_arg(name, args.scenario)
-    with console.status(f"planning and executing {args.scenario} ..."), _naming(scenario):
-        result = run_once(world, scenario, _options(args), args.out)
+    with (
+        console.status(f"planning and executing {args.scenario} ..."),
+        _naming(scenario),
+        _recorded(args.out) as observer,
+    ):
+        result = run_once(world, scenario, _options(args), args.out, observer)
     rnd = result.rounds[0]
     ep = rnd.episode
     if ep is None:
@@ -561,6 +565,7 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
     from llmpas.reasoning.methods import MethodConfig
     from llmpas.system import LoopSettings, run, run_once
 
+    _live_address(args)  # a bad --live is one line before anything is loaded
     name = _world_name(args)
     world = load_world(name)
     path = _scenario_arg(name, args.scenario)
@@ -591,11 +596,11 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
     status = escape(f"running {args.scenario} in {world.title} with {what} ...")
     kept = f" (the rounds so far are in {args.out})" if args.out else ""
     try:
-        with console.status(status), _naming(path):
+        with _watched(args, console) as observer, console.status(status), _naming(path):
             if llm is None:
-                result = run_once(world, scenario, options, args.out)
+                result = run_once(world, scenario, options, args.out, observer)
             else:
-                result = run(world, scenario, llm, settings, options, args.out)
+                result = run(world, scenario, llm, settings, options, args.out, None, observer)
     except LLMError as e:
         raise CliError(f"{e}{kept}", ExitCode.LLM) from None
     except KeyboardInterrupt:
@@ -616,6 +621,62 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
     console.print(f"{verdict}: {escape(printable(result.message, keep_newlines=False))}")
     _belief_and_truth(result, console)
     return 0 if result.success else 1
+
+
+def _live_address(args: argparse.Namespace) -> Any:
+    """The ``--live`` address (None: no live view); a bad value is one usage line."""
+    from llmpas.reporting.live import LiveError, parse_address
+
+    if args.live is None:
+        if args.live_wait:
+            raise CliError("--live-wait needs --live")
+        return None
+    try:
+        return parse_address(args.live)
+    except LiveError as e:
+        raise CliError(str(e)) from None
+
+
+@contextmanager
+def _recorded(out: str | None) -> Iterator[Any]:
+    """``OUT/run.mcap`` (the Foxglove channels) for a command's ``--out`` (None: no folder)."""
+    if not out:
+        yield None
+        return
+    from llmpas.reporting.live import FoxgloveSink
+
+    with FoxgloveSink(Path(out) / "run.mcap") as sink:
+        yield sink
+
+
+@contextmanager
+def _watched(args: argparse.Namespace, console: Console) -> Iterator[Any]:
+    """The run's viewer: the Foxglove channels into ``OUT/run.mcap`` (with ``--out``) and to
+    a live server (``--live``); None (nothing built, nothing listening) with neither."""
+    address = _live_address(args)
+    if address is None and not args.out:
+        yield None
+        return
+    from llmpas.reporting.live import FoxgloveSink, LiveError
+
+    mcap = Path(args.out) / "run.mcap" if args.out else None
+    try:
+        sink = FoxgloveSink(mcap, address).__enter__()
+    except LiveError as e:
+        raise CliError(str(e), ExitCode.IO) from None
+    try:
+        if sink.url:
+            console.print(
+                f"live: Foxglove WebSocket at {sink.url} (Foxglove: Open connection, "
+                "Foxglove WebSocket; layout: docs/foxglove-layout.json)",
+                highlight=False,
+            )
+            if args.live_wait:
+                console.print("live: waiting for a viewer to subscribe (Ctrl-C ends it)")
+                sink.wait_for_viewer()
+        yield sink
+    finally:
+        sink.close()
 
 
 def _belief_and_truth(result: Any, console: Console) -> None:
@@ -640,8 +701,10 @@ def _replan_run(
     folder = Path(args.out) / "replan-only"
     replan = _llm("replan", None, _world_name(args), args.method)
     status = escape(f"running {args.scenario} again with replan (no LLM) ...")
-    with console.status(status), _naming(scenario):
-        base = run(world, scenario, replan, settings, options, folder)
+    from llmpas.reporting.live import FoxgloveSink
+
+    with console.status(status), _naming(scenario), FoxgloveSink(folder / "run.mcap") as sink:
+        base = run(world, scenario, replan, settings, options, folder, None, sink)
     verdict = "task done" if base.success else "not done"
     console.print(f"replan only: {verdict}: {escape(printable(base.message, keep_newlines=False))}")
     build_report(folder, {"scenario": args.scenario, "world": world.title, "llm": "replan"})
@@ -739,7 +802,22 @@ def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     )
     p.add_argument("--record", help="record the LLM's answers into this cassette folder")
     p.add_argument(
-        "--out", help="folder for loop.md, loop.json (rewritten after every round) and reports"
+        "--out",
+        help="folder for loop.md, loop.json (rewritten after every round), reports and "
+        "run.mcap (the Foxglove channels of the run)",
+    )
+    p.add_argument(
+        "--live",
+        nargs="?",
+        const="127.0.0.1:8765",
+        metavar="HOST:PORT",
+        help="watch the loop live in Foxglove: a WebSocket server for the run "
+        "(default 127.0.0.1:8765; another interface only when named; docs/live.md)",
+    )
+    p.add_argument(
+        "--live-wait",
+        action="store_true",
+        help="with --live: start the loop when a viewer has subscribed",
     )
     _add_planner_options(p)
     p.set_defaults(handler=_cmd_run, seed=None)

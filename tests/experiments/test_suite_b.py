@@ -62,3 +62,33 @@ def test_the_development_half_is_fixed_by_name_and_balanced() -> None:
         names = [t.name for t in tasks if t.category is cat]
         assert len([n for n in names if n in dev]) == (len(names) + 1) // 2
     assert 0 < len(dev) < len(tasks)
+
+
+def _anomaly(path: object) -> str:
+    """What a task's anomaly is, placement aside: the goal, the objects with their hidden
+    states, the events (what happens to which object, not when or where to), the house's
+    settings and the category."""
+    import json
+    import tomllib
+    from pathlib import Path
+
+    d = tomllib.loads(Path(str(path)).read_text())
+    objects = sorted((o["name"], sorted(o.get("properties", []))) for o in d.get("objects", []))
+    where = ("region", "x", "y", "after")
+    events = sorted(
+        json.dumps({k: v for k, v in e.items() if k not in where}, sort_keys=True)
+        for e in d.get("events", [])
+    )
+    key = [d["task"]["goal"].lower(), objects, events, d.get("house", {}), d["judge"]["category"]]
+    return json.dumps(key, sort_keys=True)
+
+
+def test_no_task_is_a_first_suite_task_moved_elsewhere() -> None:
+    """Issue #43 item 1: a task of the second suite differs from every task of the first in
+    what the anomaly is (goal, objects and their states, events, house), not only in where
+    things stand or what the description says."""
+    first = {_anomaly(p): p.stem for p in sorted(SUITE_DIR.glob("*.toml"))}
+    same = {p.stem: first[_anomaly(p)] for p in FILES if _anomaly(p) in first}
+    assert not same
+    mine = [_anomaly(p) for p in FILES]
+    assert len(set(mine)) == len(mine)

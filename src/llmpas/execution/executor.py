@@ -16,7 +16,7 @@ import json
 import logging
 import time
 import uuid
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -107,6 +107,43 @@ class Episode:
         return atomic_write(path, json.dumps(self.to_json(), indent=2))
 
 
+@dataclass(frozen=True)
+class Tick:
+    """The tree after one tick, for a viewer: every node's ``(name, status, depth)`` in
+    depth-first order, and the plan steps of the subtree that is running (or last ran)."""
+
+    index: int
+    nodes: tuple[tuple[str, str, int], ...]
+    steps: tuple[int, ...]
+    status: str
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "tick": self.index,
+            "status": self.status,
+            "steps": list(self.steps),
+            "nodes": [{"name": n, "status": s, "depth": d} for n, s, d in self.nodes],
+        }
+
+
+OnTick = Callable[[Tick], object]
+
+
+def tick_of(root: py_trees.behaviour.Behaviour, subtrees: Sequence[Explore], index: int) -> Tick:
+    """The :class:`Tick` of the tree ``root`` after tick ``index``."""
+    nodes: list[tuple[str, str, int]] = []
+
+    def walk(node: py_trees.behaviour.Behaviour, depth: int) -> None:
+        nodes.append((node.name, node.status.value, depth))
+        for child in node.children:
+            walk(child, depth + 1)
+
+    walk(root, 0)
+    ran = [s for s in subtrees if s.status is not Status.INVALID]
+    steps = tuple(ran[-1].spec.steps) if ran else ()
+    return Tick(index, tuple(nodes), steps, root.status.value)
+
+
 def build_tree(
     specs: Sequence[SubtreeSpec], ctx: Context
 ) -> tuple[py_trees.composites.Sequence, list[Explore]]:
@@ -117,8 +154,13 @@ def build_tree(
 
 
 def execute(
-    specs: Sequence[SubtreeSpec], ctx: Context, config: ExecutorConfig | None = None
+    specs: Sequence[SubtreeSpec],
+    ctx: Context,
+    config: ExecutorConfig | None = None,
+    on_tick: OnTick | None = None,
 ) -> Episode:
+    """Tick the plan's subtrees to an end; ``on_tick`` gets the tree after every tick (a
+    viewer's feed; nothing is built for it when it is None)."""
     config = config or ExecutorConfig()
     root, subtrees = build_tree(specs, ctx)
     ticks = waits = 0
@@ -127,6 +169,8 @@ def execute(
             start, polls = time.monotonic(), ctx.polls
             root.tick_once()
             ticks += 1
+            if on_tick is not None:
+                on_tick(tick_of(root, subtrees, ticks))
             if root.status in (Status.SUCCESS, Status.FAILURE):
                 break
             if ctx.polls != polls:  # a skill is running: the next tick comes a period later
@@ -174,4 +218,13 @@ def _release_blackboards(root: py_trees.behaviour.Behaviour) -> None:
             client.unregister(clear=True)
 
 
-__all__ = ["Episode", "ExecStatus", "ExecutorConfig", "build_tree", "execute"]
+__all__ = [
+    "Episode",
+    "ExecStatus",
+    "ExecutorConfig",
+    "OnTick",
+    "Tick",
+    "build_tree",
+    "execute",
+    "tick_of",
+]

@@ -44,6 +44,7 @@ BENCHMARKS: Mapping[str, str] = MappingProxyType(
         "llm": "llmpas.experiments.llm_bench:BENCHMARK",
         "report": "llmpas.experiments.webreport:BENCHMARK",
         "ros": "llmpas.experiments.ros_overhead:BENCHMARK",
+        "live": "llmpas.experiments.live_overhead:BENCHMARK",
     }
 )
 

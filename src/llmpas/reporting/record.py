@@ -374,7 +374,19 @@ def _artifacts(folder: Path) -> tuple[Artifact, ...]:
             out.append(
                 Artifact(_rel(folder, path), get_str(a, "title") or name, get_str(a, "holds"))
             )
+    live = folder / "run.mcap"
+    if _inside(folder, live) and all(a.file != "run.mcap" for a in out):
+        out.insert(0, Artifact("run.mcap", "Foxglove MCAP", RUN_MCAP_HOLDS))
     return tuple(out)
+
+
+# what every run's run.mcap holds (llmpas.reporting.live; docs/live.md)
+RUN_MCAP_HOLDS = (
+    "the loop's channels, as the live view shows them: the scene (believed and true), the "
+    "robot's frames, the behaviour tree per tick, the plan, each anomaly, each LLM prompt, "
+    "answer and verdict, the belief and the loop's status; open it in Foxglove with "
+    "docs/foxglove-layout.json"
+)
 
 
 def read_run(folder: str | Path) -> RunRecord:

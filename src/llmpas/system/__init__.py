@@ -23,6 +23,8 @@ the LLM in a run; it imports no world. Its modules:
   the object is seen, within a budget; :mod:`~llmpas.system.substitution`: a substitute for a
   part of the task a known cause forbids, carried into the task;
 - :mod:`~llmpas.system.settings`: :class:`LoopSettings`;
+- :mod:`~llmpas.system.observe`: the :class:`Observer` the loop tells of every plan, tick,
+  round, consultation and record (a live view, a recording); none by default;
 - :mod:`~llmpas.system.search`: the :class:`SearchMemory` (what was searched, what is left);
 - :mod:`~llmpas.system.records`: rounds, results (belief and truth side by side), the Markdown
   report and the run folder;
@@ -38,6 +40,7 @@ from llmpas.system.acting import counted, execute, plan
 from llmpas.system.backends import LLMFactory, LLMFor, as_factory, fixed
 from llmpas.system.checks import UNJUDGED, GoalChecker
 from llmpas.system.loop import LoopSettings, close_loop
+from llmpas.system.observe import NoObserver, Observer
 from llmpas.system.records import (
     LoopResult,
     LoopStatus,
@@ -60,6 +63,8 @@ __all__ = [
     "LoopResult",
     "LoopSettings",
     "LoopStatus",
+    "NoObserver",
+    "Observer",
     "OnRound",
     "Round",
     "SearchMemory",

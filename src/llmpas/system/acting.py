@@ -12,11 +12,12 @@ from typing import Any
 
 from llmpas.execution.context import Recorder
 from llmpas.execution.csubbt import SubtreeSpec
-from llmpas.execution.executor import Episode
+from llmpas.execution.executor import Episode, OnTick, Tick
 from llmpas.execution.executor import execute as execute_specs
 from llmpas.language.logic import Atom, Formula
 from llmpas.language.problem import Problem
 from llmpas.planning import PlannerConfig, PlanResult, solve
+from llmpas.system.observe import Observer
 from llmpas.system.records import Round
 from llmpas.worlds.api import Session
 
@@ -42,23 +43,25 @@ def counted(config: PlannerConfig) -> PlannerConfig:
 
 
 def execute(
-    session: Session, result: PlanResult, problem: Problem
+    session: Session, result: PlanResult, problem: Problem, on_tick: OnTick | None = None
 ) -> tuple[tuple[SubtreeSpec, ...], Episode | None]:
     """Execute a plan found by :func:`plan` as the world's conditional subtrees (None: there is
-    no plan). Each episode gets its own timeline."""
+    no plan). Each episode gets its own timeline; ``on_tick`` gets the tree after every tick."""
     if result.plan is None:
         return (), None
     specs = tuple(session.decompose(problem, result.plan))
     session.context.recorder = Recorder()
-    return specs, execute_specs(specs, session.context, session.executor)
+    return specs, execute_specs(specs, session.context, session.executor, on_tick)
 
 
 @dataclass
 class Acting:
-    """Plans and executes for the rounds of one run; ``index``: the round being made."""
+    """Plans and executes for the rounds of one run; ``index``: the round being made;
+    ``observer``: told of each executed plan, tick and round (None: nobody watches)."""
 
     session: Session
     index: Callable[[], int]
+    observer: Observer | None = None
     plans: dict[tuple[str, int], tuple[PlanResult, Any]] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
     statuses: dict[str, int] = field(default_factory=dict)  # how each plan made ended
@@ -87,11 +90,22 @@ class Acting:
     def attempt(self, goal: Formula | str, text: str) -> Round:
         """Plan ``goal`` and execute the plan: one round."""
         result, problem = self.plan(goal)
+        seen, index = self.observer, self.index()
+        on_tick = None
+        if seen is not None:
+            seen.planned(index, text, result)
+
+            def on_tick(tick: Tick) -> None:
+                seen.ticked(index, tick)
+
         t = time.perf_counter()
-        specs, episode = execute(self.session, result, problem)
+        specs, episode = execute(self.session, result, problem, on_tick)
         if episode is not None:
             self.count("execute", time.perf_counter() - t)
-        return Round(text, result, episode, specs=specs)
+        rnd = Round(text, result, episode, specs=specs)
+        if seen is not None:
+            seen.executed(index, rnd)
+        return rnd
 
 
 __all__ = ["Acting", "counted", "execute", "plan"]

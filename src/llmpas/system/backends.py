@@ -103,6 +103,31 @@ class Once:
         return answer
 
 
+class Watched:
+    """An LLM whose requests are told to ``prompted`` when they are sent and to ``replied``
+    with their answer (a viewer's live feed); scoring requests pass unwatched."""
+
+    def __init__(
+        self,
+        inner: LLM,
+        prompted: Callable[[Request], object],
+        replied: Callable[[Request, Response], object],
+    ) -> None:
+        self.inner = inner
+        self.name = inner.name
+        self.role = who(inner)
+        self.prompted, self.replied = prompted, replied
+        scorer = getattr(inner, "score", None)
+        if callable(scorer):
+            self.score = scorer
+
+    def complete(self, request: Request) -> Response:
+        self.prompted(request)
+        response = self.inner.complete(request)
+        self.replied(request, response)
+        return response
+
+
 def who(backend: object) -> str:
     """Who answers goal requests, in the loop's messages: ``the LLM``, unless the backend says
     it is something else (a labelled oracle, the replan baseline), so that their failures are
@@ -116,6 +141,7 @@ __all__ = [
     "LLMFactory",
     "LLMFor",
     "Once",
+    "Watched",
     "as_factory",
     "fixed",
     "who",

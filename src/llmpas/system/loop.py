@@ -31,12 +31,14 @@ from llmpas.system.backends import (
     LLMFactory,
     LLMFor,
     Once,
+    Watched,
     as_factory,
     fixed,
     who,
 )
 from llmpas.system.consult import Consultation
 from llmpas.system.goals import NextGoal
+from llmpas.system.observe import Observer
 from llmpas.system.records import LoopResult, LoopStatus, OnRound, Round
 from llmpas.system.search import SearchMemory
 from llmpas.system.settings import LoopSettings
@@ -69,6 +71,7 @@ class _Loop:
     baseline: bool = False  # a Baseline answers (no LLM): its restatements are planned as given
     sweep: Sweep | None = None  # the search the last consultation yields, while it goes on
     note: str = ""  # what the page says of the next round (a sweep's look)
+    observer: Observer | None = None  # a viewer told of every step (None: nobody watches)
     probing: bool = False  # stop at the first consultation (:class:`Consulting`), asking nobody
 
     def __post_init__(self) -> None:
@@ -81,7 +84,7 @@ class _Loop:
         self.sem = Semantics(s.domain, {}, {}, strict_costs=False)
         self.task = parse_formula(s.task, self.sem.domain)
         self.search = s.search
-        self.acting = Acting(s, lambda: len(self.rounds))
+        self.acting = Acting(s, lambda: len(self.rounds), observer=self.observer)
         location = self.search.location
         self.memory = SearchMemory(
             self.search,
@@ -120,6 +123,13 @@ class _Loop:
 
     def run(self, backend: LLM) -> LoopResult:
         backend = Once(backend)  # an identical request is never sent twice in one run
+        seen = self.observer
+        if seen is not None:  # each request told when sent and when answered
+            backend = Watched(
+                backend,
+                lambda request: seen.prompted(len(self.rounds) - 1, request),
+                lambda request, response: seen.replied(len(self.rounds) - 1, request, response),
+            )
         goal, text = self.goals.task()
         on_task = True  # the round plans the task (with the recovery goals kept), not goals
         steps = 2 * self.max_rounds + 1  # the task, then per LLM round: goals + task
@@ -180,6 +190,8 @@ class _Loop:
             t, logged = time.perf_counter(), len(self.consult.check.log)
             proposal = self.consult.ask(anomaly, backend, asked)
             self.llm_time += time.perf_counter() - t
+            if self.observer is not None:
+                self.observer.answered(len(self.rounds) - 1, proposal)
             checks = tuple(self.consult.check.log[logged:])
             self.rounds[-1] = replace(rnd, proposal=proposal, checks=checks)
             self.record()
@@ -243,10 +255,16 @@ class _Loop:
         )
 
     def record(self, result: LoopResult | None = None) -> None:
-        """Hand the record so far (or the final one) to ``on_round`` (which saves it)."""
+        """Hand the record so far (or the final one) to ``on_round`` (which saves it) and to
+        the observer."""
+        if self.on_round is None and self.observer is None:
+            return
+        running = f"running: {len(self.rounds)} rounds so far"
+        record = result or self.end(False, running, LoopStatus.RUNNING)
         if self.on_round is not None:
-            running = f"running: {len(self.rounds)} rounds so far"
-            self.on_round(result or self.end(False, running, LoopStatus.RUNNING))
+            self.on_round(record)
+        if self.observer is not None:
+            self.observer.recorded(record)
 
     def expired(self) -> bool:
         return self.deadline is not None and self.clock() - self.start >= self.deadline
@@ -266,6 +284,7 @@ def close_loop(
     settings: LoopSettings,
     on_round: OnRound | None = None,
     clock: Callable[[], float] = time.monotonic,
+    observer: Observer | None = None,
 ) -> LoopResult:
     """Run the closed loop on an open ``session``. ``llm``: a factory of the session (a
     labelled oracle, which reads the world's truth, say), or a backend (read as
@@ -274,9 +293,13 @@ def close_loop(
     ``on_round`` gets the record after every plan-and-execute step and every LLM answer
     (status ``running``), and the final one; when an LLM error, a crash or an interrupt ends
     the loop it gets the rounds run so far with the error recorded, and the exception goes on.
-    ``settings.deadline`` (seconds on ``clock``) stops the loop cleanly between steps."""
+    ``settings.deadline`` (seconds on ``clock``) stops the loop cleanly between steps.
+    ``observer`` (:class:`~llmpas.system.observe.Observer`) is told of every plan, tick,
+    round, consultation and record (None: nobody watches, nothing is built for a viewer)."""
     factory = as_factory(llm)
-    loop = _Loop(session, settings, on_round=on_round, clock=clock)
+    loop = _Loop(session, settings, on_round=on_round, clock=clock, observer=observer)
+    if observer is not None:
+        observer.started(session)
     try:
         backend = factory(session)
         loop.answered_by(backend)

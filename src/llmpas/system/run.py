@@ -21,6 +21,7 @@ from llmpas.language.problem import parse_formula
 from llmpas.reasoning.llm import LLM, LLMError, Request, Response
 from llmpas.system.backends import LLMFactory, fixed
 from llmpas.system.loop import LoopSettings, close_loop
+from llmpas.system.observe import Observer
 from llmpas.system.records import (
     LoopResult,
     LoopStatus,
@@ -40,15 +41,18 @@ def run(
     options: RunOptions | None = None,
     out: str | Path | None = None,
     on_round: OnRound | None = None,
+    observer: Observer | None = None,
 ) -> LoopResult:
     """Open ``scenario`` in ``world``, run the closed loop, judge the task in the world's truth
     (where the world has one) and, with ``out``, write the run folder (``loop.json`` and
     ``loop.md`` after every step, each round's episode and subtrees, the world's own files).
     ``llm``: a factory of the session, or a backend (read as
-    :func:`~llmpas.system.backends.fixed`)."""
+    :func:`~llmpas.system.backends.fixed`); ``observer``: a viewer told of every step (its
+    last record is the judged result)."""
     hooks = [h for h in (on_round, _records_to(out)) if h is not None]
     save = None if out is None else (lambda r, session: save_loop(r, out, session))
-    return _opened(world, scenario, llm, settings or LoopSettings(), options, hooks, save)
+    settings = settings or LoopSettings()
+    return _opened(world, scenario, llm, settings, options, hooks, save, observer)
 
 
 def run_once(
@@ -56,12 +60,14 @@ def run_once(
     scenario: Any,
     options: RunOptions | None = None,
     out: str | Path | None = None,
+    observer: Observer | None = None,
 ) -> LoopResult:
     """Plan the task once and execute it, with no LLM (one round), judged like :func:`run`;
     ``out``: an episode folder (the episode's reports and subtrees, the world's own files)."""
     save = None if out is None else (lambda r, session: save_once(r, out, session))
     no_llm = fixed(_NoLLM())
-    return _opened(world, scenario, no_llm, LoopSettings(max_rounds=0), options, [], save)
+    settings = LoopSettings(max_rounds=0)
+    return _opened(world, scenario, no_llm, settings, options, [], save, observer)
 
 
 def _opened(
@@ -72,14 +78,18 @@ def _opened(
     options: RunOptions | None,
     hooks: list[OnRound],
     save: Callable[[LoopResult, Session], object] | None,
+    observer: Observer | None = None,
 ) -> LoopResult:
     """The loop on a session of ``world``, judged in its truth, then saved while it is open."""
     t0 = time.perf_counter()
     with world.open(scenario, options or RunOptions()) as session:
-        result = close_loop(session, llm, settings, _each(hooks) if hooks else None)
+        on_round = _each(hooks) if hooks else None
+        result = close_loop(session, llm, settings, on_round, observer=observer)
         # a task the loop carried a substitute into is judged as pursued (its intent, if any)
         success = settings.success or result.task or None
         result = judged(result, session, success, time.perf_counter() - t0)
+        if observer is not None:
+            observer.recorded(result)
         if save is not None:
             save(result, session)
     return result

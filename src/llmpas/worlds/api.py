@@ -159,6 +159,75 @@ class TrueFacts(Protocol):
         ...
 
 
+@dataclass(frozen=True)
+class Shape:
+    """A box in a world's scene, for a viewer: a place (``kind`` "place": a table, a room) or
+    an object ("object"), centred at ``xyz`` (metres, the world frame), ``size`` its extents,
+    turned ``yaw`` about z; ``rgba`` its colour (0..1)."""
+
+    name: str
+    kind: str
+    xyz: tuple[float, float, float]
+    size: tuple[float, float, float]
+    yaw: float = 0.0
+    rgba: tuple[float, float, float, float] = (0.6, 0.6, 0.6, 1.0)
+
+    def __post_init__(self) -> None:
+        if not self.name:
+            raise ValueError("a shape needs a name")
+        if self.kind not in ("place", "object"):
+            raise ValueError(
+                f"shape {self.name!r}: kind must be place or object, not {self.kind!r}"
+            )
+        numbers = (*self.xyz, *self.size, self.yaw, *self.rgba)
+        if len(self.xyz) != 3 or len(self.size) != 3 or len(self.rgba) != 4:
+            raise ValueError(f"shape {self.name!r}: xyz and size need 3 numbers, rgba 4")
+        if not all(math.isfinite(v) for v in numbers) or min(self.size) < 0:
+            raise ValueError(f"shape {self.name!r}: finite numbers and sizes >= 0 only")
+
+
+@dataclass(frozen=True)
+class Pose3:
+    """A frame of the robot (its base, its gripper) in ``parent``: a translation and a unit
+    quaternion (x, y, z, w)."""
+
+    name: str
+    parent: str
+    xyz: tuple[float, float, float]
+    quaternion: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 1.0)
+
+    def __post_init__(self) -> None:
+        if not self.name or not self.parent or self.name == self.parent:
+            raise ValueError(f"frame {self.name!r}: needs a name and another parent")
+        if len(self.xyz) != 3 or len(self.quaternion) != 4:
+            raise ValueError(f"frame {self.name!r}: xyz needs 3 numbers, the quaternion 4")
+        if not all(math.isfinite(v) for v in (*self.xyz, *self.quaternion)):
+            raise ValueError(f"frame {self.name!r}: finite numbers only")
+        if abs(math.hypot(*self.quaternion) - 1.0) > 1e-3:
+            raise ValueError(f"frame {self.name!r}: the quaternion is not a unit quaternion")
+
+
+@dataclass(frozen=True)
+class SceneView:
+    """What a viewer draws of a world now: its places and the objects where the robot believes
+    them (``believed``), the objects where they truly are (``truth``; empty: the world has no
+    truth to show) and the robot's frames (``frames``, in the frame ``world``)."""
+
+    believed: tuple[Shape, ...]
+    truth: tuple[Shape, ...] = ()
+    frames: tuple[Pose3, ...] = ()
+
+
+@runtime_checkable
+class SceneGeometry(Protocol):
+    """A session that can say where things are in metres (optional: a session without it is
+    drawn from its search model's places and the believed ``location`` facts, as labels)."""
+
+    def scene_view(self) -> SceneView:
+        """The scene now (called between ticks, at most a few times a second)."""
+        ...
+
+
 def holds(goal: Formula | str, facts: Set[Atom]) -> bool:
     """Whether ``goal`` holds in ``facts``, read as a closed world (the one truth judge).
 
@@ -232,4 +301,15 @@ class World(Protocol):
         ...
 
 
-__all__ = ["RunOptions", "SearchModel", "Session", "TrueFacts", "World", "holds"]
+__all__ = [
+    "Pose3",
+    "RunOptions",
+    "SceneGeometry",
+    "SceneView",
+    "SearchModel",
+    "Session",
+    "Shape",
+    "TrueFacts",
+    "World",
+    "holds",
+]

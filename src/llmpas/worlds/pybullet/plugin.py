@@ -23,7 +23,7 @@ from llmpas.language.logic import Atom, Formula
 from llmpas.language.problem import Problem
 from llmpas.planning.result import Plan
 from llmpas.reasoning.tables import PromptTables, Vocabulary
-from llmpas.worlds.api import RunOptions, holds
+from llmpas.worlds.api import RunOptions, SceneView, holds
 from llmpas.worlds.kitchen import load_domain
 from llmpas.worlds.kitchen.session import PLANNER, KitchenSearch, KitchenSession
 from llmpas.worlds.pybullet.camera import CameraConfig
@@ -42,6 +42,7 @@ from llmpas.worlds.pybullet.run import (
 from llmpas.worlds.pybullet.scene import Scene, SceneConfig, open_client
 from llmpas.worlds.pybullet.streams import Geometry
 from llmpas.worlds.pybullet.values import BaseConf, ObjectPose
+from llmpas.worlds.pybullet.view import scene_view
 from llmpas.worlds.pybullet.world import PyBulletWorld
 
 
@@ -119,6 +120,10 @@ class PyBulletSession(KitchenSession):
 
     def environment(self) -> str:
         return environment(self.scenario.scene, self.belief)
+
+    def scene_view(self) -> SceneView:
+        """Tables, objects believed and true, the robot's frames (a viewer's; docs/live.md)."""
+        return scene_view(self.scene, self.belief)
 
     def true_facts(self) -> frozenset[Atom]:
         """The simulator's true state, as facts (for the truth judge only)."""

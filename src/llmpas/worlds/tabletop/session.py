@@ -26,7 +26,7 @@ from llmpas.language.problem import Problem
 from llmpas.planning import PlannerConfig
 from llmpas.planning.result import Plan
 from llmpas.reasoning.tables import PromptTables, Vocabulary
-from llmpas.worlds.api import RunOptions, holds
+from llmpas.worlds.api import RunOptions, SceneView, holds
 from llmpas.worlds.kitchen import load_domain
 from llmpas.worlds.kitchen.reasoning import whereabouts
 from llmpas.worlds.kitchen.session import KitchenSession
@@ -40,6 +40,7 @@ from llmpas.worlds.pybullet.scene import TABLE_TOP, Rect, Scene, open_client
 from llmpas.worlds.pybullet.snapshot import save_media
 from llmpas.worlds.pybullet.streams import Geometry
 from llmpas.worlds.pybullet.values import BaseConf, BasePath, Grasp, ObjectPose
+from llmpas.worlds.pybullet.view import scene_view
 from llmpas.worlds.pybullet.world import PyBulletWorld
 from llmpas.worlds.tabletop.scenarios import WORKSPACE, TabletopScenario, prompt_tables, scenarios
 
@@ -121,6 +122,10 @@ class TabletopSession(KitchenSession):
         bowls = {o.name for o in self.scene.config.objects if o.kind == "bowl"}
         belief.facts -= {Atom.of("Object", b) for b in bowls}
         return belief
+
+    def scene_view(self) -> SceneView:
+        """The table, the objects believed and true, the arm's base and gripper (a viewer's)."""
+        return scene_view(self.scene, self.belief)
 
     def problem(self, goal: Formula | str, index: int) -> Problem:
         return make_problem(self.geometry, self.belief, goal, here=self.geometry.base)
