@@ -180,7 +180,7 @@ class LoopResult:
             "llm_time": round(self.llm_time, 3),
             "timings": {k: round(v, 3) for k, v in self.timings.items()},
             "rounds": [r.to_json() for r in self.rounds],
-            "plans": dict(self.plans),
+            **({"plans": dict(self.plans)} if self.plans else {}),
             **(substituted if self.substitutions else {}),
         }
 
