@@ -29,7 +29,7 @@ WORLDS = MappingProxyType(
         "household": "llmpas.worlds.household.plugin:WORLD",
         "pybullet": "llmpas.worlds.pybullet.plugin:WORLD",
         "tabletop": "llmpas.worlds.tabletop:WORLD",
-        "ros2": "llmpas.worlds.ros2.session:WORLD",
+        "ros2": "llmpas.worlds.ros2.plugin:WORLD",
     }
 )
 ORACLES = MappingProxyType(

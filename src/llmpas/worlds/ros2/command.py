@@ -32,6 +32,12 @@ def parser(prog: str = "llmpas robot pybullet") -> argparse.ArgumentParser:
     p.add_argument("--log-dir", help="ROS_LOG_DIR and the node's files (default: a temp folder)")
     p.add_argument("--ready", help="write this file once every server is up")
     p.add_argument(
+        "--truth",
+        metavar="FILE",
+        help="write the simulator's true final state here when the robot stops (JSON: facts, "
+        "the scenario's goal and whether it holds), to check a client's perceived verdict",
+    )
+    p.add_argument(
         "--robot-profile",
         metavar="FILE",
         help="its profile: action and topic names, namespace, QoS of its publishers "
@@ -89,7 +95,10 @@ def run(argv: Sequence[str]) -> int:
         raise UsageError(problem)
     faults = Faults(frozenset(args.reject), frozenset(args.abort), frozenset(args.stall))
     ready = Path(args.ready) if args.ready else None
-    serve(args.scenario, args.seed, env, faults, ready, profile)
+    truth = Path(args.truth) if args.truth else None
+    if truth is not None and not truth.parent.is_dir():
+        raise UsageError(f"--truth {truth}: no folder {truth.parent}")
+    serve(args.scenario, args.seed, env, faults, ready, profile, truth)
     return 0
 
 

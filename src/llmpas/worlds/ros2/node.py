@@ -500,8 +500,10 @@ def serve(
     faults: Faults,
     ready: Path | None = None,
     profile: RobotProfile | None = None,
+    truth: Path | None = None,
 ) -> None:
-    """Build the simulator and serve it until SIGINT/SIGTERM (rclpy's handlers end the spin)."""
+    """Build the simulator and serve it until SIGINT/SIGTERM (rclpy's handlers end the spin);
+    then write the true final state to ``truth``."""
     env.apply()
     reclaim_shared_memory()  # what killed nodes left in /dev/shm
     import rclpy
@@ -539,6 +541,29 @@ def serve(
             executor.shutdown()
             node.destroy_node()
             context.try_shutdown()
+            if truth is not None:
+                write_truth(truth, world, chosen.name, chosen.goal)
+
+
+def write_truth(path: Path, world: Any, scenario: str, goal: str) -> None:
+    """The simulator's true state as JSON (atomically): its facts and whether the scenario's
+    goal holds in them."""
+    import json
+
+    from llmpas.files import atomic_write
+    from llmpas.worlds.api import holds
+    from llmpas.worlds.pybullet.facts import true_facts
+
+    facts = true_facts(world.scene)
+    about = {
+        "scenario": scenario,
+        "goal": goal,
+        "goal_holds": holds(goal, facts),
+        "facts": sorted(str(f) for f in facts),
+        "held": world.scene.held,
+    }
+    atomic_write(path, json.dumps(about, indent=2))
+    log.info("wrote the true final state to %s", path)
 
 
 if __name__ == "__main__":  # the robot's process (session.robot_process): one parser, command's

@@ -204,12 +204,15 @@ class StandardRobot:
     def __init__(
         self,
         context: Any,
-        scene: Scene,
+        scene: Scene | None,
         profile: RobotProfile,
         rng: np.random.Generator,
         timeouts: Timeouts | None = None,
         on_goal: Callable[[str, str, Any], None] | None = None,
+        build_scene: Callable[[str, tuple[float, float, float]], Scene] | None = None,
     ) -> None:
+        """``scene``: the planning scene; None: ``build_scene(description, base)`` makes it
+        once the robot's description and its pose in the map have come."""
         import rclpy
         from control_msgs.action import FollowJointTrajectory, GripperCommand
         from nav2_msgs.action import NavigateToPose
@@ -219,7 +222,11 @@ class StandardRobot:
         from tf2_msgs.msg import TFMessage
         from vision_msgs.msg import Detection3DArray
 
-        self.scene, self.profile = scene, profile
+        if scene is None and build_scene is None:
+            raise ValueError("a planning scene or a way to build one")
+        self.build_scene = build_scene
+        self.rng = rng
+        self.profile = profile
         self.timeouts = timeouts or Timeouts()
         self.on_goal = on_goal or (lambda channel, kind, msg: None)
         self.node = rclpy.create_node(
@@ -251,8 +258,12 @@ class StandardRobot:
                 sub(Detection3DArray, topic.name, self._detector(key), topic.qos.rclpy())
             )
         self.spinner = Spinner(self.node, context)  # requests and replies under one lock
-        self.skills = RecordingSkills(scene, rng)
-        self.believed: tuple[float, float, float] = scene.config.base
+        self.scene: Scene = scene  # type: ignore[assignment]  # built at connection if None
+        # built at connection with the scene if None
+        self.skills: RecordingSkills = RecordingSkills(scene, rng) if scene else None  # type: ignore[assignment]
+        self.believed: tuple[float, float, float] = (
+            scene.config.base if scene is not None else (0.0, 0.0, 0.0)
+        )
         self.log: list[str] = []
         self.frames: list[Any] = []
         self.images: list[Any] = []
@@ -330,6 +341,11 @@ class StandardRobot:
                     raise RobotUnavailableError(f"no {what} within {self.timeouts.discover:g} s")
                 time.sleep(0.02)
         self._check_description()
+        if self.build_scene is not None and self.scene is None:
+            base = self.tf.lookup(f.map, f.base)
+            x, y, _ = base.translation
+            self.scene = self.build_scene(self.description, (x, y, base.yaw))
+            self.skills = RecordingSkills(self.scene, self.rng)
         self._static_geometry()
         self.sync()
 
