@@ -29,7 +29,7 @@ from llmpas.execution.world import Observation, Outcome, SkillResult, finish
 from llmpas.worlds.pybullet.scene import Scene
 from llmpas.worlds.pybullet.values import ArmGoal, BaseConf, ObjectPose
 from llmpas.worlds.ros2 import convert
-from llmpas.worlds.ros2.node import ACTIONS, FJT, GRIPPER, LOOK, NAV, SKILL, STATE, action_names
+from llmpas.worlds.ros2.names import ACTIONS, FJT, GRIPPER, LOOK, NAV, SKILL, STATE, action_names
 from llmpas.worlds.ros2.profile import RobotProfile
 from llmpas.worlds.ros2.spin import Spinner
 

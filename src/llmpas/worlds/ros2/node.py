@@ -42,24 +42,19 @@ from llmpas.worlds.pybullet.values import ArmGoal, Grasp
 from llmpas.worlds.pybullet.world import PyBulletWorld
 from llmpas.worlds.ros2 import convert, standard
 from llmpas.worlds.ros2.env import RosEnv, reclaim_shared_memory
+from llmpas.worlds.ros2.names import (
+    ACTIONS,
+    FJT,
+    GRIPPER,
+    LOOK,
+    NAV,
+    SKILL,
+    STATE,
+    action_names,
+)
 from llmpas.worlds.ros2.profile import LATCHED, RobotProfile
 
 log = logging.getLogger(__name__)
-
-NAV = "navigate_to_pose"
-FJT = "arm_controller/follow_joint_trajectory"
-GRIPPER = "gripper_controller/gripper_cmd"
-SKILL = "llmpas/skill"
-LOOK = "llmpas/look"
-STATE = "llmpas/scene_state"
-ACTIONS = (NAV, FJT, GRIPPER, SKILL, LOOK)
-STANDARD = (NAV, FJT, GRIPPER)  # the actions a standard robot serves
-
-
-def action_names(profile: RobotProfile) -> dict[str, str]:
-    """Each action's name on this robot (relative names resolve in the node's namespace)."""
-    a = profile.actions
-    return {NAV: a.navigate, FJT: a.arm, GRIPPER: a.gripper, SKILL: a.skill, LOOK: a.look}
 
 
 @dataclass(frozen=True)

@@ -16,47 +16,11 @@ from llmpas.execution.world import Observation, SkillResult
 from llmpas.worlds.pybullet.camera import MAST, detect, look_at, wrist_image
 from llmpas.worlds.pybullet.scene import MOUNT_OFFSET, TABLE_TOP
 from llmpas.worlds.pybullet.world import PyBulletWorld
+from llmpas.worlds.ros2.nav2 import NO_VALID_PATH, nav2_reason
 from llmpas.worlds.ros2.profile import RobotProfile
 from llmpas.worlds.ros2.tf import Transform
 
 CAMERA_FRAME = "mast_camera_link"
-
-# Nav2 (Jazzy): the navigator's result carries the failing task server's code:
-# nav2_msgs/action/ComputePathToPose 200-208, FollowPath 100-106, the navigator's own 9000s.
-PLANNER_CODES = {
-    200: "unknown",
-    201: "invalid_planner",
-    202: "tf",
-    203: "start_outside_map",
-    204: "blocked",  # GOAL_OUTSIDE_MAP
-    205: "start_occupied",
-    206: "blocked",  # GOAL_OCCUPIED
-    207: "timeout",
-    208: "blocked",  # NO_VALID_PATH
-}
-CONTROLLER_CODES = {
-    100: "unknown",
-    101: "invalid_controller",
-    102: "tf",
-    103: "invalid_path",
-    104: "stuck",  # PATIENCE_EXCEEDED
-    105: "stuck",  # FAILED_TO_MAKE_PROGRESS
-    106: "stuck",  # NO_VALID_CONTROL
-}
-NO_VALID_PATH = 208
-
-
-def nav2_reason(code: int) -> str:
-    """The failure's reason for a NavigateToPose ``error_code`` (``aborted`` when unknown)."""
-    if code in PLANNER_CODES:
-        return PLANNER_CODES[code]
-    if code in CONTROLLER_CODES:
-        return CONTROLLER_CODES[code]
-    if code == 9003:
-        return "timeout"
-    if code == 9002:
-        return "tf"
-    return "aborted"
 
 
 def nav2_error_code(result: SkillResult) -> int:

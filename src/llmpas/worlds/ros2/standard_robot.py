@@ -38,10 +38,10 @@ from llmpas.worlds.pybullet.values import ArmGoal, BaseConf, ObjectPose
 from llmpas.worlds.pybullet.world import goal_height, look_orientation, near_graspable
 from llmpas.worlds.ros2 import convert
 from llmpas.worlds.ros2.client import RobotUnavailableError, Timeouts
-from llmpas.worlds.ros2.node import FJT, GRIPPER, NAV, STANDARD, action_names
+from llmpas.worlds.ros2.names import FJT, GRIPPER, NAV, STANDARD, action_names
+from llmpas.worlds.ros2.nav2 import nav2_reason
 from llmpas.worlds.ros2.profile import CAMERAS, Place, RobotProfile
 from llmpas.worlds.ros2.spin import Spinner
-from llmpas.worlds.ros2.standard import nav2_reason
 from llmpas.worlds.ros2.tf import TfBuffer, TfError, Transform
 
 log = logging.getLogger(__name__)
