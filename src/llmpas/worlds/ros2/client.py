@@ -158,6 +158,8 @@ class Timeouts:
     accept: float = 30.0
     goal: float = 300.0
     lost: float = 3.0
+    settle: float = 1.0  # for joint states stamped after a goal's result (a standard robot)
+    cancel: float = 2.0  # for the reply to a cancel (waited for off the tick's thread)
 
 
 class RosRobot:
