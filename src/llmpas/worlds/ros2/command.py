@@ -58,6 +58,11 @@ def parser(prog: str = "llmpas robot pybullet") -> argparse.ArgumentParser:
             help=f"{fault} goals of KIND (navigate_to_pose, follow_joint_trajectory, look, "
             "or a skill: grasp, release, move_arm, ...); for tests",
         )
+    p.add_argument(
+        "--hold-accept",
+        metavar="FILE",
+        help="accept no goal before FILE exists (a server slow to accept; for tests)",
+    )
     return p
 
 
@@ -93,7 +98,8 @@ def run(argv: Sequence[str]) -> int:
     problem = missing_rmw(env.environ())
     if problem is not None:
         raise UsageError(problem)
-    faults = Faults(frozenset(args.reject), frozenset(args.abort), frozenset(args.stall))
+    hold = Path(args.hold_accept) if args.hold_accept else None
+    faults = Faults(frozenset(args.reject), frozenset(args.abort), frozenset(args.stall), hold)
     ready = Path(args.ready) if args.ready else None
     truth = Path(args.truth) if args.truth else None
     if truth is not None and not truth.parent.is_dir():

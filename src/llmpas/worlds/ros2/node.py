@@ -64,6 +64,7 @@ class Faults:
     reject: frozenset[str] = frozenset()
     abort: frozenset[str] = frozenset()
     stall: frozenset[str] = frozenset()
+    hold_accept: Path | None = None  # accept no goal before this file exists (a slow server)
 
 
 def build_world(scenario: PyBulletScenario, seed: int, client: int) -> PyBulletWorld:
@@ -224,6 +225,13 @@ class RobotNode:
         if kind in self.faults.reject:
             log.warning("rejecting a %s goal (fault)", kind)
             return self._accept.REJECT
+        gate = self.faults.hold_accept
+        if gate is not None and not gate.exists():
+            log.warning("holding a %s goal's acceptance until %s exists (fault)", kind, gate)
+            end = time.monotonic() + 120.0
+            while not gate.exists() and time.monotonic() < end:
+                time.sleep(0.01)
+            log.warning("accepting the held %s goal", kind)
         return self._accept.ACCEPT
 
     def _hold(self, handle: Any, kind: str) -> bool:
