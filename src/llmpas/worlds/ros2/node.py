@@ -26,6 +26,7 @@ or hold it until it is cancelled.
 from __future__ import annotations
 
 import logging
+import signal
 import threading
 import time
 from collections.abc import Callable
@@ -536,6 +537,7 @@ def serve(
         )
         if ready is not None:
             ready.write_text(f"{robot.goals}\n")
+        signal.signal(signal.SIGTERM, _interrupt)  # SIGTERM ends the spin as SIGINT does
         try:
             executor.spin()
         except (KeyboardInterrupt, ExternalShutdownException):
@@ -546,6 +548,10 @@ def serve(
             context.try_shutdown()
             if truth is not None:
                 write_truth(truth, world, chosen.name, chosen.goal)
+
+
+def _interrupt(signum: int, frame: Any) -> None:
+    raise KeyboardInterrupt
 
 
 def write_truth(path: Path, world: Any, scenario: str, goal: str) -> None:

@@ -1,0 +1,68 @@
+"""``llmpas run --world ros2 --site`` against the PyBullet robot serving standard interfaces:
+the client plans from the robot's interfaces and the site only (it imports no scenario module),
+its verdict is labelled "perceived", and the simulated robot's true final state (``--truth``)
+agrees with it. Loopback only: a random domain, discovery on localhost, ROS_LOG_DIR."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+from llmpas.worlds.ros2.env import random_domain
+from tests.worlds.ros2.conftest import REPO, llmpas
+
+REPLAY = "replay:tests/data/cassettes/qwen1.5b-pybullet-hidden"
+
+
+def test_a_site_run_is_done_as_perceived_and_the_truth_agrees(tmp_path: Path, start_robot) -> None:
+    domain = random_domain()
+    truth = tmp_path / "truth.json"
+    robot = start_robot(domain, "--standard", "--truth", str(truth))
+    run = llmpas(
+        ["run", "object-loss", "--world", "ros2", "--robot-profile", "pybullet-standard",
+         "--site", "house", "--llm", REPLAY, "--out", str(tmp_path / "run")],
+        domain, tmp_path / "client-log", LLMPAS_ROS_ROBOT="external",
+    )  # fmt: skip
+    try:
+        out, err = run.communicate(timeout=900)
+    finally:
+        if run.poll() is None:
+            run.kill()
+    assert run.returncode == 0, err[-3000:]
+    assert out.strip().splitlines()[-1].startswith("task done"), out[-2000:]
+    loop = json.loads((tmp_path / "run" / "loop.json").read_text())
+    assert loop["success"] is True and loop["verdict_basis"] == "perceived"
+    assert loop["truth"] is None  # the client has no ground truth
+    assert len(loop["rounds"]) >= 2  # the cube was carried off: a recovery was needed
+    about = json.loads((tmp_path / "run" / "ros.json").read_text())
+    assert about["verdict"] == "perceived" and about["site"]["task"] == "object-loss"
+    assert "task done (perceived)" in (tmp_path / "run" / "index.html").read_text()
+    robot.proc.send_signal(signal.SIGTERM)  # the robot writes its truth as it stops
+    robot.proc.wait(60)
+    told = json.loads(truth.read_text())
+    assert told["goal"] == "(and (On cube bowl))" and told["goal_holds"] is True
+    assert "(on cube bowl)" in told["facts"] and told["held"] is None
+
+
+CLIENT = """
+import sys
+from llmpas.experiments.worlds import load_world
+import llmpas.cli
+world = load_world("ros2")
+import llmpas.worlds.ros2.site_session
+loaded = [m for m in sys.modules if m.startswith("llmpas.worlds.")]
+bad = [m for m in loaded if m in ("llmpas.worlds.pybullet.run", "llmpas.worlds.pybullet.plugin",
+       "llmpas.worlds.ros2.node", "llmpas.worlds.ros2.standard", "llmpas.worlds.ros2.session")]
+print(",".join(bad))
+"""
+
+
+def test_the_site_client_imports_no_scenario_and_no_simulated_robot() -> None:
+    out = subprocess.run(
+        [sys.executable, "-c", CLIENT], capture_output=True, text=True, timeout=120, cwd=REPO
+    )
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip().splitlines()[-1:] in ([], [""]), out.stdout
