@@ -9,6 +9,7 @@ import sys
 from pathlib import Path
 
 import pytest
+import yaml
 
 from llmpas.worlds.ros2.site import Region, SiteError, load, parse, shipped
 
@@ -54,6 +55,57 @@ def test_the_shipped_sites_load() -> None:
     assert house.task("object-loss").goal == "(and (On cube bowl))"
     assert {o.name: o.place for o in house.objects} == {"cube": "table1", "bowl": "table2"}
     assert house.cls("bowl").shape == "container" and not house.cls("bowl").graspable
+    workshop = load("workshop")  # written apart: other names, sizes and layout
+    assert {p.name for p in workshop.places} == {"workbench", "counter", "cart"}
+    assert workshop.place("counter").region.axis_aligned  # a polygon, measured corner by corner
+    assert workshop.place_of(1.7, 0.55) == "counter" and workshop.cls("block").size[0] == 0.04
+
+
+PLANNABLE = (
+    GOOD.replace("height: 0.7", "height: 0.625")
+    .replace("    kind: container\n    openable: true\n", "")
+    .replace("height: 0.3", "height: 0.625")
+)
+
+
+@pytest.mark.parametrize(
+    ("change", "key"),
+    [
+        (("  bin:\n", "  bin:\n    kind: container\n"),
+         "places.bin.kind: the planner plans on surfaces only"),
+        (("height: 0.625}", "height: 0.8}"), "places.bench: height 0.8"),
+        (("size: [0.06, 0.06, 0.06]", "size: [0.06, 0.03, 0.06]"), "classes.mug.size: the planner"),
+        (("  mug: {class: mug, place: bench", "  mug: {class: mug, colour: mauve, place: bench"),
+         "objects.mug.colour: one of"),
+        (("polygon: [[-1, -1], [-0.5, -1]", "polygon: [[-1, -1], [-0.4, -1]"),
+         "places.bin: the planner samples placements on axis-aligned rectangles"),
+    ],
+)  # fmt: skip
+def test_what_the_planner_cannot_plan_for_is_named(change: tuple[str, str], key: str) -> None:
+    from llmpas.worlds.ros2.site_scene import scene_config
+
+    scene_config(parse(yaml.safe_load(PLANNABLE), "good.yaml"), (0.0, 0.0, 0.0))  # plannable
+    assert change[0] in PLANNABLE
+    site = parse(yaml.safe_load(PLANNABLE.replace(*change)), "good.yaml")
+    with pytest.raises(SiteError) as e:
+        scene_config(site, (0.0, 0.0, 0.0))
+    assert str(e.value).startswith("good.yaml: ") and key in str(e.value), str(e.value)
+
+
+def test_a_site_as_the_planners_scene() -> None:
+    from llmpas.worlds.ros2.site_scene import scene_config
+
+    config = scene_config(load("workshop"), (0.0, 0.0, 1.5708))
+    assert [t.name for t in config.tables] == ["workbench", "counter", "cart"]
+    block = config.obj("block")
+    assert (block.kind, block.table, block.colour, block.size) == (
+        "cube",
+        "workbench",
+        "blue",
+        0.04,
+    )
+    assert (block.dx, block.dy) == (0.25, -0.15)  # told: [0.25, 1.55] on the workbench
+    assert config.obj("tray").kind == "bowl" and config.base == (0.0, 0.0, 1.5708)
 
 
 def test_a_site_with_a_polygon_a_container_and_an_object_without_place(tmp_path: Path) -> None:

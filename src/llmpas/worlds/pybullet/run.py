@@ -27,6 +27,7 @@ from llmpas.worlds.pybullet.scene import (
     Scene,
     SceneConfig,
     TableConfig,
+    table_rect,
 )
 from llmpas.worlds.pybullet.snapshot import save_media
 from llmpas.worlds.pybullet.values import BaseConf, ObjectPose
@@ -69,8 +70,8 @@ class PyBulletScenario:
             return self.events
         out = []
         for e in self.events:
-            t = self.scene.table(e.table)
-            half = (0.5, 0.75) if abs(math.sin(t.yaw)) > 0.5 else (0.75, 0.5)
+            rect = table_rect(self.scene.table(e.table))
+            half = ((rect.x1 - rect.x0) / 2, (rect.y1 - rect.y0) / 2)
             dx, dy = rng.normal(0.0, self.event_jitter, 2)
             out.append(
                 replace(
@@ -98,6 +99,24 @@ def _four_tables() -> tuple[TableConfig, ...]:
         TableConfig("table2", 0.0, 1.9),
         TableConfig("table3", 0.0, -1.9),
         TableConfig("table4", -1.8, 0.0, math.pi / 2),
+    )
+
+
+def _workshop() -> SceneConfig:
+    """A workshop, laid out apart from the house: a workbench ahead of the robot's start (it
+    starts facing +y), a long counter to its right, a small cart behind it on the left; tables
+    of other sizes than pybullet_data's, a smaller blue block and a wider tray."""
+    return SceneConfig(
+        tables=(
+            TableConfig("workbench", 0.0, 1.7, 0.0, (1.2, 0.7)),
+            TableConfig("counter", 1.8, 0.2, 0.0, (0.7, 1.8)),
+            TableConfig("cart", -1.6, -0.6, 0.0, (0.8, 0.6)),
+        ),
+        objects=(
+            ObjectConfig("block", "cube", "workbench", 0.25, -0.15, "blue", 0.04),
+            ObjectConfig("tray", "bowl", "counter", -0.1, 0.35, "white", 0.2),
+        ),
+        base=(0.0, 0.0, math.pi / 2),
     )
 
 
@@ -159,6 +178,17 @@ def scenarios() -> dict[str, PyBulletScenario]:
                 seed=6,
                 covers=(("lid", "bowl"),),
                 unknown=("lid",),
+            ),
+            PyBulletScenario(
+                "workshop-moved",
+                "A workshop (workbench, counter, cart): put the blue block from the workbench "
+                "into the tray on the counter. While the robot drives to the workbench, someone "
+                "moves the block onto the counter beside the tray. The pick fails where the "
+                "robot was told the block was; it must find the block again and recover.",
+                _workshop(),
+                "(and (On block tray))",
+                seed=3,
+                events=(Event("move_base", 1, "block", "counter", -0.1, -0.45),),
             ),
             PyBulletScenario(
                 "action-blocking-seen",

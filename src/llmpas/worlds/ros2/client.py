@@ -2,7 +2,7 @@
 
 :class:`RosRobot` is an :class:`~llmpas.execution.world.Robot` and a
 :class:`~llmpas.execution.world.Perception` whose calls become goals of the robot's action
-servers (names in :mod:`llmpas.worlds.ros2.node`): the base is Nav2's ``NavigateToPose``, the
+servers (names in :mod:`llmpas.worlds.ros2.names`): the base is Nav2's ``NavigateToPose``, the
 arm's named configuration (home) ros2_control's ``FollowJointTrajectory``, the rest the project's
 ``Skill`` and ``Look`` actions. A skill sends its goal and returns a :class:`RosGoal`, the
 executor's handle: each tick polls it (the node's executor spins in its own thread, so feedback

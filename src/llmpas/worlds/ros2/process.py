@@ -54,7 +54,7 @@ def robot_process(
     cmd = [
         sys.executable,
         "-m",
-        "llmpas.worlds.ros2.node",
+        "llmpas.worlds.pybullet_ros2",  # the simulated robot, by name: never imported here
         scenario,
         "--seed",
         str(seed),

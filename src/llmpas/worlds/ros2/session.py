@@ -1,6 +1,6 @@
 """The ROS 2 world (``--world ros2``): the PyBullet scenarios, with the robot reached over ROS 2.
 
-By default a session starts the PyBullet robot node (:mod:`llmpas.worlds.ros2.node`) in a
+By default a session starts the PyBullet robot node (:mod:`llmpas.worlds.pybullet_ros2.node`) in a
 process of its own, on a fresh random ``ROS_DOMAIN_ID`` with discovery kept on localhost, and
 stops it at the end. ``LLMPAS_ROS_ROBOT=external`` connects to a robot that is already serving
 the actions instead (``llmpas robot pybullet SCENARIO``, or a real robot: docs/ros.md), on

@@ -2,7 +2,7 @@
 
 The ROS 2 world's own command, registered in :data:`llmpas.experiments.worlds.ROBOTS`; the
 command line hands it everything after ``llmpas robot pybullet`` and this module's parser is the
-only one (``python -m llmpas.worlds.ros2.node`` uses it too).
+only one (``python -m llmpas.worlds.pybullet_ros2`` uses it too).
 """
 
 from __future__ import annotations
@@ -72,8 +72,8 @@ def run(argv: Sequence[str]) -> int:
     args = parser().parse_args(list(argv))
     if importlib.util.find_spec("rclpy") is None:
         raise UsageError('robot: needs the ros extra (pip install -e ".[ros]"): no rclpy')
+    from llmpas.worlds.pybullet_ros2.node import Faults, serve
     from llmpas.worlds.ros2.env import from_environment, missing_rmw
-    from llmpas.worlds.ros2.node import Faults, serve
     from llmpas.worlds.ros2.profile import ProfileError
     from llmpas.worlds.ros2.profile import load as load_profile
 
@@ -109,7 +109,8 @@ def run(argv: Sequence[str]) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """The command outside the CLI (``python -m llmpas.worlds.ros2.node``): errors in one line."""
+    """The command outside the CLI (``python -m llmpas.worlds.pybullet_ros2``): errors in one
+    line."""
     try:
         return run(sys.argv[1:] if argv is None else argv)
     except LlmpasError as e:

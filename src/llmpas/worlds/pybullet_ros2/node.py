@@ -41,7 +41,8 @@ from llmpas.worlds.pybullet.run import PyBulletScenario, resolve, setup_scene
 from llmpas.worlds.pybullet.scene import FINGER_OPEN, Scene, open_client
 from llmpas.worlds.pybullet.values import ArmGoal, Grasp
 from llmpas.worlds.pybullet.world import PyBulletWorld
-from llmpas.worlds.ros2 import convert, standard
+from llmpas.worlds.pybullet_ros2 import standard
+from llmpas.worlds.ros2 import convert
 from llmpas.worlds.ros2.env import RosEnv, reclaim_shared_memory
 from llmpas.worlds.ros2.names import (
     ACTIONS,
@@ -573,12 +574,6 @@ def write_truth(path: Path, world: Any, scenario: str, goal: str) -> None:
     }
     atomic_write(path, json.dumps(about, indent=2))
     log.info("wrote the true final state to %s", path)
-
-
-if __name__ == "__main__":  # the robot's process (session.robot_process): one parser, command's
-    from llmpas.worlds.ros2.command import main
-
-    raise SystemExit(main())
 
 
 __all__ = [
