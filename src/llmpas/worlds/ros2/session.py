@@ -75,6 +75,9 @@ class Ros2Session(Recording, PyBulletSession):
         self.folder = folder
         t0 = time.perf_counter()
         self.profile = profile
+        # a standard robot gives no ground truth: its verdict is judged on the planning scene,
+        # what it perceived; the llmpas-interfaces robot answers its (simulator's) scene
+        self.verdict_basis = "perceived" if profile.standard else "truth"
         self.scene = Scene(client, scenario.scene)  # the planning scene
         self.bag = McapRecorder(folder / BAG)
         self.robot: RosRobot | StandardRobot
@@ -112,6 +115,9 @@ class Ros2Session(Recording, PyBulletSession):
         self._recorder: Any = self.context.recorder
         self._seen = 0
         self.robot.clock = lambda: (self.rounds, len(self.context.recorder.events))
+
+    def about(self) -> dict[str, Any]:
+        return {"verdict": self.verdict_basis}
 
 
 __all__ = [
