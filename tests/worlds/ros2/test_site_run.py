@@ -77,9 +77,10 @@ from llmpas.experiments.worlds import load_world
 import llmpas.cli
 world = load_world("ros2")
 import llmpas.worlds.ros2.site_session
-loaded = [m for m in sys.modules if m.startswith("llmpas.worlds.")]
-bad = [m for m in loaded if m in ("llmpas.worlds.pybullet.run", "llmpas.worlds.pybullet.plugin",
-       "llmpas.worlds.ros2.session") or m.startswith("llmpas.worlds.pybullet_ros2")]
+loaded = [m for m in sys.modules if m.startswith("llmpas.worlds.") or m == "pybullet_data"]
+scenario = ("llmpas.worlds.pybullet.run", "llmpas.worlds.pybullet.plugin",
+            "llmpas.worlds.ros2.session", "pybullet_data")
+bad = [m for m in loaded if m in scenario or m.startswith("llmpas.worlds.pybullet_ros2")]
 print(",".join(bad))
 """
 

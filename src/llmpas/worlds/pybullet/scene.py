@@ -22,7 +22,6 @@ from types import MappingProxyType
 
 import numpy as np
 import pybullet as p
-import pybullet_data
 
 log = logging.getLogger(__name__)
 
@@ -80,14 +79,19 @@ def quiet_fds() -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def open_client(gui: bool = False) -> Iterator[int]:
-    """A fresh physics client (DIRECT unless ``gui``), disconnected on exit."""
+def open_client(gui: bool = False, data: bool = True) -> Iterator[int]:
+    """A fresh physics client (DIRECT unless ``gui``), disconnected on exit; ``data``: with
+    pybullet_data's models on its search path (a planning scene built from a robot's
+    description and a site needs none)."""
     with quiet_fds():
         cid = p.connect(p.GUI if gui else p.DIRECT)
     if cid < 0:
         raise RuntimeError("could not connect to PyBullet")
     try:
-        p.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=cid)
+        if data:
+            import pybullet_data
+
+            p.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=cid)
         p.setGravity(0, 0, -9.81, physicsClientId=cid)
         yield cid
     finally:

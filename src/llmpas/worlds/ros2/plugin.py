@@ -129,7 +129,7 @@ class Ros2Plugin:
                 extra = ("--robot-profile", profile.source) if profile.source else ()
                 stack.enter_context(robot_process(name, seed, env, folder, extra))
             context = stack.enter_context(ros_context(env))
-            client = stack.enter_context(open_client(False))
+            client = stack.enter_context(open_client(False, data=site is None))
             try:
                 session = self._session(plugin, scenario, site, options, client, context,
                                         folder, profile)  # fmt: skip
