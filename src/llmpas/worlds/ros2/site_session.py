@@ -12,7 +12,7 @@ what the robot perceived (the planning scene's state), labelled so (``verdict_ba
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -51,6 +51,42 @@ TOPICS = {  # recorded topics: the profile's topic key -> (package, message)
     "tf": ("tf2_msgs.msg", "TFMessage"),
     "tf_static": ("tf2_msgs.msg", "TFMessage"),
 }
+
+
+class SiteGeometry(Geometry):
+    """The planner's geometry at a site: poses sampled along a place's sides, then the base
+    poses the site gives to look at the place and to reach it (those free of the furniture; a
+    reach pose only where the arm reaches the object from it), so that a place whose sides
+    the sampler cannot use is still looked at and reached. (Tried first, the site's poses
+    changed what the robot saw on the shipped house site, and the replayed model's recorded
+    answers no longer covered the run.)"""
+
+    def __init__(self, scene: Scene, rng: np.random.Generator, site: Site) -> None:
+        super().__init__(scene, rng)
+        self.site = site
+
+    def _given(self, place: str, reach: bool) -> list[BaseConf]:
+        try:
+            found = self.site.place(place)
+        except KeyError:
+            return []
+        poses = found.reach if reach else found.views
+        return [BaseConf(b.x, b.y, b.yaw) for b in poses]
+
+    def views(self, table: str, near: tuple[float, float] | None) -> Iterator[BaseConf]:
+        yield from super().views(table, near)
+        for q in self._given(table, reach=False):
+            if self.checker.free(q.pose):
+                yield q
+
+    def kin(self, obj: str, pose: ObjectPose, grasp: Any) -> Iterator[BaseConf]:
+        yield from super().kin(obj, pose, grasp)
+        table = self.table_of(pose)
+        if table is not None:
+            height = self.scene.config.obj(obj).height
+            for q in self._given(table, reach=True):
+                if self.reaches(q, pose, grasp, height):
+                    yield q
 
 
 def site_belief(scene: Scene, site: Site, base: BaseConf) -> Belief:
@@ -122,7 +158,7 @@ class SiteSession(Recording, KitchenSession):
         self.scene = self.robot.scene
         self.timings["connect"] = time.perf_counter() - t0
         belief = site_belief(self.scene, site, self.robot.base_conf())
-        self.geometry = Geometry(self.scene, np.random.default_rng([self.seed, 1]))
+        self.geometry = SiteGeometry(self.scene, np.random.default_rng([self.seed, 1]), site)
         self.context = Context(self.robot, self.robot, belief,
                                np.random.default_rng([self.seed, 2]))  # fmt: skip
         self.domain = load_domain()
@@ -176,4 +212,4 @@ class SiteSession(Recording, KitchenSession):
         }
 
 
-__all__ = ["SiteSession", "site_belief", "site_search"]
+__all__ = ["SiteGeometry", "SiteSession", "site_belief", "site_search"]
