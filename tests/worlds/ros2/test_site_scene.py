@@ -14,7 +14,7 @@ from llmpas.worlds.pybullet.kinematics import Collision
 from llmpas.worlds.pybullet.scene import open_client
 from llmpas.worlds.pybullet.values import BaseConf
 from llmpas.worlds.ros2.robot_model import DescriptionError, arm_model
-from llmpas.worlds.ros2.site import load, parse
+from llmpas.worlds.ros2.site import parse
 from llmpas.worlds.ros2.site_scene import SiteScene
 from llmpas.worlds.ros2.site_session import SiteGeometry
 
