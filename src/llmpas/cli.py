@@ -562,9 +562,10 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
     from llmpas.reasoning.methods import MethodConfig
     from llmpas.system import LoopSettings, run, run_once
 
-    name = _world_name(args)
+    site = getattr(args, "site", None)
+    name = "ros2" if site and not args.world else _world_name(args)  # a site: a ROS 2 robot's
     world = load_world(name)
-    if getattr(args, "site", None):  # the task is the site's (the world reads the site)
+    if site:  # the task is the site's (the world reads the site)
         if name != "ros2":
             raise CliError(f"--site: only --world ros2 reads a site file, not {name}")
         path, scenario, intent = args.scenario, args.scenario, None

@@ -224,3 +224,14 @@ def test_llmpas_run_with_a_bad_site_is_one_line(
     lines = [line for line in (out.stderr + out.stdout).splitlines() if line.strip()]
     assert len(lines) == 1, lines
     assert str(f.name) in lines[0] and key in lines[0], lines
+
+
+def test_a_site_needs_a_standard_robot_and_the_ros2_world(tmp_path: Path) -> None:
+    f = write(tmp_path, GOOD)
+    out = run_cli("run", "tidy", "--robot-profile", "pybullet", "--site", str(f), "--no-llm",
+                  cwd=tmp_path)  # fmt: skip
+    assert out.returncode == 1 and "Traceback" not in out.stderr
+    assert "a site is for a standard robot (interfaces: standard)" in out.stderr, out.stderr
+    out = run_cli("run", "tidy", "--world", "pybullet", "--site", str(f), "--no-llm",
+                  cwd=tmp_path)  # fmt: skip
+    assert out.returncode != 0 and "--site: only --world ros2 reads a site file" in out.stderr
