@@ -175,6 +175,8 @@ def loop_markdown(result: LoopResult) -> str:
     lines = [title, "", f"**{verdict}**: {_md(result.message)}", ""]
     if result.truth is not None:
         lines += [f"Belief and truth: {result.verdicts}", ""]
+    elif result.basis == "perceived":
+        lines += [f"Verdict: {result.verdicts} (what the robot perceived; no ground truth)", ""]
     if result.substitutions:
         lines += [f"The task pursued: `{_md(result.task)}`", ""]
         lines += [f"- substituted: {_md(s)}" for s in result.substitutions] + [""]
