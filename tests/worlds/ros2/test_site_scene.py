@@ -68,7 +68,8 @@ def scene(description: str) -> Iterator[SiteScene]:
                                       "height": 0.625}, "reach": [[0.5, 0.0, 0.0]],
                               "look": [[0.4, 0.3, 0.2]]}},
         "furniture": {"table1": {"size": [1.0, 1.5, 0.625], "pose": [1.6, 0.0, 0.3125, 0.0]}},
-        "classes": {"cube": {"shape": "box", "size": [0.05, 0.05, 0.05]}},
+        "classes": {"cube": {"shape": "box", "size": [0.05, 0.05, 0.05]},
+                    "lid": {"shape": "lid", "size": [0.2, 0.2, 0.05]}},
         "objects": {"cube": {"class": "cube", "place": "table1", "at": [1.3, 0.2]},
                     "spare": {"class": "cube"}},
     }  # fmt: skip
@@ -94,3 +95,29 @@ def test_the_sites_base_poses_are_among_the_planners(scene: SiteScene) -> None:
     geometry = SiteGeometry(scene, np.random.default_rng(0), scene.site)
     views = list(islice(geometry.views("table1", None), 40))
     assert BaseConf(0.4, 0.3, 0.2) in views and views[0] != BaseConf(0.4, 0.3, 0.2)
+
+
+def test_an_object_seen_but_not_told_of_joins_the_scene(scene: SiteScene) -> None:
+    """SiteSession.discover, on a real planning scene and belief: an object whose class id is
+    one of the site's classes, lying on a place, joins the scene, the belief's static facts and
+    the reasoner's vocabulary; anything else is ignored (and stays so)."""
+    from llmpas.execution.context import Context
+    from llmpas.language.logic import Atom
+    from llmpas.worlds.ros2.site_session import SiteSession, site_belief
+
+    session = object.__new__(SiteSession)  # the parts discover() reads, without a ROS graph
+    session.site, session.scene = scene.site, scene
+    belief = site_belief(scene, scene.site, BaseConf(0.0, 0.0, 0.0))
+    session.context = Context(None, None, belief, np.random.default_rng(0))  # type: ignore[arg-type]
+    session.ignored, session.discovered = set(), []
+    assert not session.discover("mug", (1.5, 0.3, 0.65), (0.05, 0.05, 0.05))  # no such class
+    assert not session.discover("mug", (1.5, 0.3, 0.65), (0.05,) * 3) and "mug" in session.ignored
+    assert not session.discover("lid", (5.0, 5.0, 0.65), (0.2, 0.2, 0.05))  # on no place (yet)
+    assert "lid" not in scene.movable() and Atom.of("Object", "lid") not in belief.facts
+    assert session.discover("lid", (1.5, 0.3, 0.655), (0.2, 0.2, 0.05))
+    assert "lid" in scene.movable() and scene.config.obj("lid").kind == "lid"
+    assert scene.pose("lid")[0][0] == pytest.approx(1.5, abs=1e-3)
+    assert Atom.of("Object", "lid") in belief.facts
+    assert Atom.of("Stackable", "lid", "table1") in belief.facts
+    assert "lid" in session.vocabulary.predicates["holding"][0]
+    assert session.discovered == ["lid"] and "lid" in session.search.known

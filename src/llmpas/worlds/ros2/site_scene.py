@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import tempfile
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -35,7 +36,7 @@ from llmpas.worlds.pybullet.scene import (
     quiet_fds,
 )
 from llmpas.worlds.ros2.robot_model import ArmModel, DescriptionError
-from llmpas.worlds.ros2.site import Site, SiteError
+from llmpas.worlds.ros2.site import ObjectClass, Site, SiteError
 
 SHAPE_KIND = {"box": "cube", "container": "bowl", "lid": "lid"}
 PARKED = (0.0, 0.0, -20.0)  # a told object of unknown whereabouts, until it is seen
@@ -44,6 +45,33 @@ FINGERS = ("panda_finger_joint1", "panda_finger_joint2")
 
 def _where(site: Site, key: str) -> str:
     return f"{site.source or site.name}: {key}"
+
+
+def object_config(site: Site, name: str, cls: ObjectClass, place: str,
+                  at: tuple[float, float], colour: str, key: str) -> ObjectConfig:  # fmt: skip
+    """An object of class ``cls`` at ``at`` on ``place`` as the planner's configuration
+    (:class:`SiteError` naming ``key`` or the class when the planner cannot plan for it)."""
+    ckey = f"classes.{cls.name}"
+    kind = SHAPE_KIND[cls.shape]
+    sx, sy, sz = cls.size
+    if kind == "cube" and max(sx, sy, sz) - min(sx, sy, sz) > 1e-6:
+        raise SiteError(_where(site, f"{ckey}.size: the planner grasps boxes as cubes "
+                                      "(three equal sides)"))  # fmt: skip
+    if kind == "bowl" and (abs(sx - sy) > 1e-6 or abs(sz - BOWL_HEIGHT) > 1e-6):
+        raise SiteError(_where(site, f"{ckey}.size: the planner's containers are square "
+                                      f"and {BOWL_HEIGHT} m high"))  # fmt: skip
+    if kind != "cube" and cls.graspable != (kind == "lid"):
+        raise SiteError(_where(site, f"{ckey}.graspable: the planner grasps boxes and lids, "
+                                      "not containers"))  # fmt: skip
+    colour = colour or "white"
+    if colour not in COLOURS:
+        raise SiteError(_where(site, f"{key}.colour: one of {', '.join(COLOURS)}"))
+    x0, y0, x1, y1 = site.place(place).region.bounds
+    dx, dy = at[0] - (x0 + x1) / 2, at[1] - (y0 + y1) / 2
+    try:
+        return ObjectConfig(name, kind, place, round(dx, 4), round(dy, 4), colour, float(sx))
+    except ValueError as e:
+        raise SiteError(_where(site, f"{key}: {e}")) from None
 
 
 def scene_config(site: Site, base: tuple[float, float, float]) -> SceneConfig:
@@ -80,38 +108,11 @@ def scene_config(site: Site, base: tuple[float, float, float]) -> SceneConfig:
     objects = []
     first = site.places[0]
     for told in site.objects:
-        cls = site.cls(told.cls)
-        key = f"classes.{cls.name}"
-        kind = SHAPE_KIND[cls.shape]
-        sx, sy, sz = cls.size
-        if kind == "cube" and max(sx, sy, sz) - min(sx, sy, sz) > 1e-6:
-            raise SiteError(
-                _where(site, f"{key}.size: the planner grasps boxes as cubes (three equal sides)")
-            )
-        if kind == "bowl" and (abs(sx - sy) > 1e-6 or abs(sz - BOWL_HEIGHT) > 1e-6):
-            raise SiteError(
-                _where(
-                    site,
-                    f"{key}.size: the planner's containers are square and {BOWL_HEIGHT} m high",
-                )
-            )
-        if kind != "cube" and cls.graspable != (kind == "lid"):
-            raise SiteError(
-                _where(site, f"{key}.graspable: the planner grasps boxes and lids, not containers")
-            )
         place = site.place(told.place) if told.place else first
         x0, y0, x1, y1 = place.region.bounds
         at = told.at or ((x0 + x1) / 2, (y0 + y1) / 2)
-        dx, dy = at[0] - (x0 + x1) / 2, at[1] - (y0 + y1) / 2
-        colour = told.colour or "white"
-        if colour not in COLOURS:
-            known = ", ".join(COLOURS)
-            raise SiteError(_where(site, f"objects.{told.name}.colour: one of {known}"))
-        try:
-            objects.append(ObjectConfig(told.name, kind, place.name, round(dx, 4), round(dy, 4),
-                                        colour, float(sx)))  # fmt: skip
-        except ValueError as e:
-            raise SiteError(_where(site, f"objects.{told.name}: {e}")) from None
+        objects.append(object_config(site, told.name, site.cls(told.cls), place.name, at,
+                                     told.colour, f"objects.{told.name}"))  # fmt: skip
     return SceneConfig(tuple(tables), tuple(objects), base)
 
 
@@ -149,6 +150,14 @@ class SiteScene(Scene):
         self.settle()
         for name in unknown:
             self.set_pose(name, PARKED)
+
+    def add_object(self, o: ObjectConfig, at: tuple[float, float, float]) -> None:
+        """An object the robot saw that the site did not tell of, where it was seen."""
+        self.config = replace(self.config, objects=(*self.config.objects, o))
+        body = self._load_object(o)
+        self.bodies[o.name] = body
+        self.names[body] = o.name
+        self.set_pose(o.name, at)
 
     def _box(self, half: tuple[float, ...], at: tuple[float, float, float], yaw: float = 0.0,
              mass: float = 0.0) -> int:  # fmt: skip

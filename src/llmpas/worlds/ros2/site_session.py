@@ -11,10 +11,11 @@ what the robot perceived (the planning scene's state), labelled so (``verdict_ba
 
 from __future__ import annotations
 
+import logging
 import time
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -30,18 +31,20 @@ from llmpas.worlds.kitchen import load_domain
 from llmpas.worlds.kitchen.session import PLANNER, KitchenSearch, KitchenSession
 from llmpas.worlds.pybullet.decomposition import build_specs, table_of
 from llmpas.worlds.pybullet.facts import true_facts
-from llmpas.worlds.pybullet.problem import initial_belief, make_problem
+from llmpas.worlds.pybullet.problem import initial_belief, make_problem, static_facts
 from llmpas.worlds.pybullet.reasoning import environment, prompt_tables, vocabulary
-from llmpas.worlds.pybullet.scene import TABLE_TOP, Scene
+from llmpas.worlds.pybullet.scene import TABLE_TOP, Scene, SceneConfig
 from llmpas.worlds.pybullet.streams import Geometry
 from llmpas.worlds.pybullet.values import BaseConf, ObjectPose
 from llmpas.worlds.ros2.client import RobotUnavailableError
 from llmpas.worlds.ros2.record import McapRecorder
 from llmpas.worlds.ros2.recording import BAG, Recording
 from llmpas.worlds.ros2.robot_model import DescriptionError, arm_model
-from llmpas.worlds.ros2.site import Site, Task
-from llmpas.worlds.ros2.site_scene import SiteScene
+from llmpas.worlds.ros2.site import Site, SiteError, Task
+from llmpas.worlds.ros2.site_scene import SiteScene, object_config
 from llmpas.worlds.ros2.standard_robot import StandardRobot
+
+log = logging.getLogger(__name__)
 
 TOPICS = {  # recorded topics: the profile's topic key -> (package, message)
     "odom": ("nav_msgs.msg", "Odometry"),
@@ -87,6 +90,18 @@ class SiteGeometry(Geometry):
             for q in self._given(table, reach=True):
                 if self.reaches(q, pose, grasp, height):
                     yield q
+
+
+class LiveConfig:
+    """The planning scene's configuration as it is when read: the subtrees' checks see an
+    object first seen after they were built (a lid the robot finds lying over the bowl it
+    is about to place into)."""
+
+    def __init__(self, scene: Scene) -> None:
+        self._scene = scene
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._scene.config, name)
 
 
 def site_belief(scene: Scene, site: Site, base: BaseConf) -> Belief:
@@ -171,6 +186,48 @@ class SiteSession(Recording, KitchenSession):
         self._recorder: Any = self.context.recorder
         self._seen = 0
         self.robot.clock = lambda: (self.rounds, len(self.context.recorder.events))
+        self.ignored: set[str] = set()  # class ids seen that name nothing the planner can use
+        self.discovered: list[str] = []
+        self.robot.discover = self.discover
+
+    def discover(
+        self, name: str, at: tuple[float, float, float], size: tuple[float, float, float]
+    ) -> bool:
+        """An object seen that the site did not tell of: into the planning scene, the belief's
+        static facts and the reasoner's vocabulary, when its class id names one of the site's
+        classes and it lies on a place (one object per class id); a class id the site names no
+        class for, or one the planner cannot plan for, is ignored from then on (the log says
+        why once)."""
+        if name in self.ignored:
+            return False
+        why = ""
+        try:
+            cls = self.site.cls(name)
+        except KeyError:
+            why = "the site names no such class"
+        if why:
+            self.ignored.add(name)
+            log.info("a detected %r ignored: %s", name, why)
+            return False
+        place = self.site.place_of(at[0], at[1])
+        if place is None:  # not yet: it may be seen on a place later
+            log.debug("a detected %r on none of the site's places", name)
+            return False
+        old = self.scene.config
+        try:
+            o = object_config(self.site, name, cls, place, (at[0], at[1]), "", f"classes.{name}")
+        except SiteError as e:
+            self.ignored.add(name)
+            log.info("a detected %r ignored: %s", name, e)
+            return False
+        self.scene.add_object(o, at)
+        self.belief.facts |= static_facts(self.scene.config) - static_facts(old)
+        self.vocabulary = vocabulary(self.scene.config)
+        self.prompts = prompt_tables(self.scene.config)
+        self.search = site_search(self.scene, self.belief)
+        self.discovered.append(name)
+        log.info("seen %s (size %s), which the site did not tell of, on %s", name, size, place)
+        return True
 
     # ------------------------------------------------------------------ the loop's parts
 
@@ -191,7 +248,8 @@ class SiteSession(Recording, KitchenSession):
 
     def decompose(self, problem: Problem, plan: Plan) -> Sequence[SubtreeSpec]:
         self.rounds, self.episodes = self.episodes, self.episodes + 1
-        return build_specs(self.scene.config, problem, plan, self.exploration)
+        live = cast(SceneConfig, LiveConfig(self.scene))  # objects seen mid-round included
+        return build_specs(live, problem, plan, self.exploration)
 
     def environment(self) -> str:
         return environment(self.scene.config, self.belief)
@@ -209,6 +267,7 @@ class SiteSession(Recording, KitchenSession):
         return {
             "verdict": "perceived",
             "site": {"name": self.site.name, "file": self.site.source, "task": self.name},
+            "discovered": list(self.discovered),  # seen, not told of
         }
 
 

@@ -372,6 +372,11 @@ class StandardRobot:
         # process's clock (simulated time, a clock offset between machines)
         self.moved_at = {camera: 0.0 for camera in CAMERAS}
         self.places: tuple[Place, ...] = ()  # the profile's, in map (once TF has them)
+        # an object detected that the planning scene does not hold: (class id, where, size)
+        # -> whether it was added to the scene (None: such detections are ignored)
+        self.discover: (
+            Callable[[str, tuple[float, float, float], tuple[float, float, float]], bool] | None
+        ) = None
 
     # ------------------------------------------------------------------ the graph
 
@@ -761,11 +766,15 @@ class StandardRobot:
             if name in places:
                 viewed.add(name)
                 continue
-            if name not in known:
-                continue
             pos = best.pose.pose.position
             x, y, z = to_map.apply((pos.x, pos.y, pos.z))
-            seen[name] = ((round(x, 4), round(y, 4), round(z, 4)), float(best.hypothesis.score))
+            at = (round(x, 4), round(y, 4), round(z, 4))
+            if name not in known:  # neither told of nor seen before: the session may add it
+                size = (float(d.bbox.size.x), float(d.bbox.size.y), float(d.bbox.size.z))
+                if self.discover is None or not self.discover(name, at, size):
+                    continue
+                known = {o.name: o for o in self.scene.config.objects}
+            seen[name] = (at, float(best.hypothesis.score))
         bowls = {n: at for n, (at, _) in seen.items() if known[n].kind == "bowl"}
         viewed |= set(bowls)
         dets = []
