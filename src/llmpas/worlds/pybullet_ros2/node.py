@@ -571,6 +571,10 @@ def write_truth(path: Path, world: Any, scenario: str, goal: str) -> None:
         "goal_holds": holds(goal, facts),
         "facts": sorted(str(f) for f in facts),
         "held": world.scene.held,
+        "poses": {  # every object's position in the map (m)
+            o.name: [round(float(v), 4) for v in world.scene.pose(o.name)[0]]
+            for o in world.scene.config.objects
+        },
     }
     atomic_write(path, json.dumps(about, indent=2))
     log.info("wrote the true final state to %s", path)
