@@ -425,6 +425,7 @@ def _options(args: argparse.Namespace) -> Any:
         seed=args.seed,
         gui=bool(getattr(args, "gui", False)),
         robot_profile=getattr(args, "robot_profile", None),
+        site=getattr(args, "site", None),
     )
 
 
@@ -566,10 +567,16 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
     from llmpas.system import LoopSettings, run, run_once
 
     _live_address(args)  # a bad --live is one line before anything is loaded
-    name = _world_name(args)
+    site = getattr(args, "site", None)
+    name = "ros2" if site and not args.world else _world_name(args)  # a site: a ROS 2 robot's
     world = load_world(name)
-    path = _scenario_arg(name, args.scenario)
-    scenario, intent = _suite_task(name, path)
+    if site:  # the task is the site's (the world reads the site)
+        if name != "ros2":
+            raise CliError(f"--site: only --world ros2 reads a site file, not {name}")
+        path, scenario, intent = args.scenario, args.scenario, None
+    else:
+        path = _scenario_arg(name, args.scenario)
+        scenario, intent = _suite_task(name, path)
     try:
         method = MethodConfig(
             method=args.method,
@@ -607,7 +614,7 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
         raise CliError(f"interrupted{kept}", ExitCode.INTERRUPTED) from None
     _print_rounds(result, console)
     about: dict[str, Any] = {"world": world.title, "task": result.rounds[0].goal}
-    description = world.scenarios().get(args.scenario)
+    description = None if getattr(args, "site", None) else world.scenarios().get(args.scenario)
     if description:  # what happens in the scenario (where a moved object went), on the page
         about["description"] = description
     if args.out and assists.label != "assisted":
@@ -758,6 +765,12 @@ def _add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         metavar="FILE",
         help="the robot's profile (YAML: names, namespace, QoS, places; a shipped name: "
         "pybullet, pybullet-standard) for worlds that drive a robot (ros2; docs/ros.md)",
+    )
+    p.add_argument(
+        "--site",
+        metavar="FILE",
+        help="the site (YAML: places, furniture, object classes, told objects, tasks; a shipped "
+        "name: house, workshop); SCENARIO is then one of its tasks (--world ros2; docs/ros.md)",
     )
     p.add_argument("--no-llm", action="store_true", help="plan and execute once, no reasoning")
     add_llm_argument(p, replan=True)

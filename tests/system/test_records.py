@@ -18,7 +18,8 @@ def test_loop_json_keeps_its_fields_and_adds_belief_and_truth(tmp_path: Path) ->
     result = LoopResult("s", False, (), "the task is done", believed=True, truth=False)
     save_records(result, tmp_path)
     saved = json.loads((tmp_path / "loop.json").read_text())
-    assert set(saved) == BEFORE | {"believed", "truth"}
+    assert set(saved) == BEFORE | {"believed", "truth", "verdict_basis"}
+    assert saved["verdict_basis"] == "belief"  # not judged by a world here
     assert (saved["success"], saved["believed"], saved["truth"]) == (False, True, False)
     assert saved["status"] == "not-done"
     md = (tmp_path / "loop.md").read_text()
@@ -73,3 +74,15 @@ def test_the_package_re_exports_every_name_of_the_module_it_replaced() -> None:
     assert set(llmpas.system.__all__) <= set(dir(llmpas.system))
     for name in llmpas.system.recovery.__all__:
         assert getattr(llmpas.recovery, name) is getattr(llmpas.system.recovery, name)
+
+
+def test_a_perceived_verdict_says_so(tmp_path: Path) -> None:
+    """A standard robot's run: judged on what it perceived, with no ground truth."""
+    result = LoopResult("s", True, (), "the task is done", basis="perceived")
+    assert result.verdicts == "believed done, perceived done" and result.truth is None
+    save_records(result, tmp_path)
+    saved = json.loads((tmp_path / "loop.json").read_text())
+    assert saved["verdict_basis"] == "perceived" and saved["truth"] is None
+    md = (tmp_path / "loop.md").read_text()
+    assert "Verdict: believed done, perceived done (what the robot perceived" in md
+    assert "Belief and truth" not in md

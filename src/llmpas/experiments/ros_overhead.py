@@ -2,7 +2,9 @@
 run in-process (the ``pybullet`` world), over ROS 2 (the ``ros2`` world: the robot node in a
 process of its own, every skill an action goal, recorded as MCAP) and against the same robot as
 a standard ROS 2 robot (``--robot-profile pybullet-standard``: Nav2, ros2_control, TF,
-vision_msgs; llmpas plans the arm's trajectories and keeps its own planning scene), alternately,
+vision_msgs; llmpas plans the arm's trajectories and keeps its own planning scene) and that
+standard robot driven from a site file alone (``--site``: the planning scene from the site and
+the robot's description; its verdict is what it perceived), alternately,
 ``--repeats`` times each, none rendering snapshots; the table gives the wall time of each (with
 the node's start and the connection for ROS 2), the loop's execution and planning time, and
 their ratios to in-process, measured in one run. The ROS 2 run must give the in-process rounds
@@ -28,19 +30,33 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scenario", default="object-loss", help="a PyBullet scenario")
     p.add_argument("--llm", default="oracle", help="the LLM (default: the labelled oracle)")
     p.add_argument("--repeats", type=int, default=1, help="runs of each, alternately")
+    p.add_argument(
+        "--site",
+        default="house",
+        help="the site for the standard robot driven from a site (a file or a shipped name; "
+        "the scenario is one of its tasks; '': no such row)",
+    )
     p.add_argument("--json", help="write the measurements to this JSON file")
 
 
-WORLDS = {"pybullet": None, "ros2": None, "standard": "pybullet-standard"}  # -> robot profile
+WORLDS = {  # -> robot profile
+    "pybullet": None,
+    "ros2": None,
+    "standard": "pybullet-standard",
+    "site": "pybullet-standard",
+}
 
 
-def _once(label: str, scenario: str, llm: str) -> dict[str, Any]:
+def _once(label: str, scenario: str, llm: str, site: str = "") -> dict[str, Any]:
     from llmpas.experiments.worlds import LoopConfig, llm_for, run_loop
     from llmpas.worlds.api import RunOptions
 
     world = "pybullet" if label == "pybullet" else "ros2"
     # no snapshots in any: the robot node renders none, so the in-process run must not
-    config = LoopConfig(options=RunOptions(snapshots=False, robot_profile=WORLDS[label]))
+    options = RunOptions(
+        snapshots=False, robot_profile=WORLDS[label], site=site if label == "site" else None
+    )
+    config = LoopConfig(options=options)
     t0 = time.perf_counter()
     result = run_loop(scenario, llm_for(llm, None, world), config, world=world)
     wall = time.perf_counter() - t0
@@ -56,11 +72,12 @@ def _once(label: str, scenario: str, llm: str) -> dict[str, Any]:
 def command(args: argparse.Namespace, console: Console) -> int:
     if args.repeats < 1:
         raise ValueError(f"--repeats must be >= 1, got {args.repeats}")
-    runs: dict[str, list[dict[str, Any]]] = {label: [] for label in WORLDS}
+    labels = [label for label in WORLDS if label != "site" or args.site]
+    runs: dict[str, list[dict[str, Any]]] = {label: [] for label in labels}
     for i in range(args.repeats):
         for label in runs:
             with console.status(f"{args.scenario} on {label} ({i + 1}/{args.repeats}) ..."):
-                runs[label].append(_once(label, args.scenario, args.llm))
+                runs[label].append(_once(label, args.scenario, args.llm, args.site))
 
     def same_as_local(label: str) -> bool:
         return all(
@@ -69,34 +86,36 @@ def command(args: argparse.Namespace, console: Console) -> int:
         )
 
     same, standard_same = same_as_local("ros2"), same_as_local("standard")
+    names = {"ros2": "over ROS 2", "standard": "standard robot", "site": "standard + site"}
+    others = [label for label in runs if label != "pybullet"]
     table = Table(title=f"{args.scenario}, --llm {args.llm}: ROS 2 against in-process")
-    for col in ("measure (median)", "in-process", "over ROS 2", "ratio", "standard robot",
-                "ratio"):  # fmt: skip
-        table.add_column(col)
+    table.add_column("measure (median)")
+    table.add_column("in-process")
+    for label in others:
+        table.add_column(names[label])
+        table.add_column("ratio")
     summary: dict[str, Any] = {}
+    keys = {"ros2": ("ros2", "ratio"), "standard": ("standard", "standard_ratio"),
+            "site": ("site", "site_ratio")}  # fmt: skip
     for key, label in (("wall", "run wall time"), ("execute", "execution"), ("plan", "planning")):
         local = statistics.median(r[key] for r in runs["pybullet"])
-        ros = statistics.median(r[key] for r in runs["ros2"])
-        std = statistics.median(r[key] for r in runs["standard"])
-        ratio = ros / local if local > 0 else float("nan")
-        std_ratio = std / local if local > 0 else float("nan")
-        summary[key] = {
-            "in_process": local,
-            "ros2": ros,
-            "ratio": ratio,
-            "standard": std,
-            "standard_ratio": std_ratio,
-        }
-        table.add_row(
-            label, f"{local:.2f} s", f"{ros:.2f} s", f"{ratio:.2f}x", f"{std:.2f} s",
-            f"{std_ratio:.2f}x",
-        )  # fmt: skip
+        row = [label, f"{local:.2f} s"]
+        summary[key] = {"in_process": local}
+        for other in others:
+            value = statistics.median(r[key] for r in runs[other])
+            ratio = value / local if local > 0 else float("nan")
+            summary[key].update({keys[other][0]: value, keys[other][1]: ratio})
+            row += [f"{value:.2f} s", f"{ratio:.2f}x"]
+        table.add_row(*row)
     console.print(table)
-    for label, agrees in (("over ROS 2", same), ("standard robot", standard_same)):
-        rounds = runs["ros2" if label == "over ROS 2" else "standard"][0]["rounds"]
+    for label in others:
+        rounds = runs[label][0]["rounds"]
+        agrees = same_as_local(label)
+        done = "task done" if all(r["success"] for r in runs[label]) else "NOT ALL DONE"
+        basis = " (perceived)" if label == "site" else ""
         console.print(
-            f"{label}: rounds and goals {'the same' if agrees else 'DIFFERENT'} as in-process "
-            f"({len(rounds)} rounds: {', '.join(rounds)})"
+            f"{names[label]}: rounds and goals {'the same' if agrees else 'DIFFERENT'} as "
+            f"in-process ({len(rounds)} rounds: {', '.join(rounds)}); {done}{basis}"
         )
     if args.json:
         out = {
@@ -104,6 +123,8 @@ def command(args: argparse.Namespace, console: Console) -> int:
             "llm": args.llm,
             "same": same,
             "standard_same": standard_same,
+            "site": args.site,
+            "site_same": same_as_local("site") if "site" in runs else None,
             **summary,
             "runs": runs,
         }

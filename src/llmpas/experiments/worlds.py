@@ -29,7 +29,7 @@ WORLDS = MappingProxyType(
         "household": "llmpas.worlds.household.plugin:WORLD",
         "pybullet": "llmpas.worlds.pybullet.plugin:WORLD",
         "tabletop": "llmpas.worlds.tabletop:WORLD",
-        "ros2": "llmpas.worlds.ros2.session:WORLD",
+        "ros2": "llmpas.worlds.ros2.plugin:WORLD",
     }
 )
 ORACLES = MappingProxyType(
@@ -42,7 +42,7 @@ ORACLES = MappingProxyType(
 )
 ORACLE = "oracle"
 # ``llmpas robot KIND ARGS``: the command of a world that serves a simulated robot, run(argv) -> int
-ROBOTS = MappingProxyType({"pybullet": "llmpas.worlds.ros2.command:run"})
+ROBOTS = MappingProxyType({"pybullet": "llmpas.worlds.pybullet_ros2.command:run"})
 
 
 def _attr(spec: str, what: str) -> Any:

@@ -246,9 +246,16 @@ def _method_line(run: RunRecord) -> str:
 def _hero(run: RunRecord, images: Images) -> Markup:
     outcome = "unknown" if run.success is None else "done" if run.success else "not done"
     title = "task done" if run.success else "task not done" if run.success is False else "outcome"
+    if run.basis == "perceived" and run.success is not None:
+        title += " (perceived)"
     calls = sum(len(r.reasoning.exchanges) for r in run.rounds if r.reasoning)
     facts = [
         ("task", tag("code", run.task or "—")),
+        *(
+            [("verdict", "what the robot perceived (its detections and gripper), no ground truth")]
+            if run.basis == "perceived"
+            else []
+        ),
         ("world", get_str(run.about, "world") or "—"),
         ("LLM", _llm_line(run)),
         ("method", _method_line(run)),

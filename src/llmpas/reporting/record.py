@@ -209,6 +209,7 @@ class RunRecord:
     raw: tuple[str, ...]
     world_log: tuple[str, ...] = field(default=())
     artifacts: tuple[Artifact, ...] = field(default=())
+    basis: str = ""  # what the verdict was judged on: truth, perceived, belief ("": unknown)
 
     @property
     def task(self) -> str:
@@ -422,6 +423,7 @@ def read_run(folder: str | Path) -> RunRecord:
         or folder.resolve().name,
         loop=isinstance(loop, Mapping),
         success=success if isinstance(success, bool) else None,
+        basis=get_str(loop, "verdict_basis"),
         message=get_str(loop, "message") or get_str(about, "message"),
         about=about,
         timings=timings,

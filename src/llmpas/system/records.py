@@ -139,6 +139,9 @@ class LoopResult:
     error: str = ""  # what stopped the loop when it did not end by itself
     believed: bool | None = None  # the loop's verdict in the robot's belief (None: ``success``)
     truth: bool | None = None  # the task judged in the world's true state (None: not judged)
+    # what ``success`` was judged on: "truth" (the world's true state), "perceived" (what a
+    # robot without ground truth perceived: a real or standard robot's), "" (the belief)
+    basis: str = ""
     # the task the loop pursued at the end when it carried a substitute into it ("": as given),
     # and what it substituted and why
     task: str = ""
@@ -162,6 +165,8 @@ class LoopResult:
     def verdicts(self) -> str:
         """Belief and truth side by side: ``believed done, truly not done``, say."""
         believed = "believed done" if self.believed else "believed not done"
+        if self.basis == "perceived":
+            return f"{believed}, {'perceived done' if self.success else 'perceived not done'}"
         if self.truth is None:
             return f"{believed}, no truth judged"
         return f"{believed}, {'truly done' if self.truth else 'truly not done'}"
@@ -173,6 +178,7 @@ class LoopResult:
             "success": self.success,
             "believed": self.believed,
             "truth": self.truth,
+            "verdict_basis": self.basis or "belief",
             "message": self.message,
             "status": self.status.value if self.status else None,
             "error": self.error or None,
@@ -202,6 +208,8 @@ def loop_markdown(result: LoopResult) -> str:
     lines = [title, "", f"**{verdict}**: {_md(result.message)}", ""]
     if result.truth is not None:
         lines += [f"Belief and truth: {result.verdicts}", ""]
+    elif result.basis == "perceived":
+        lines += [f"Verdict: {result.verdicts} (what the robot perceived; no ground truth)", ""]
     if result.substitutions:
         lines += [f"The task pursued: `{_md(result.task)}`", ""]
         lines += [f"- substituted: {_md(s)}" for s in result.substitutions] + [""]

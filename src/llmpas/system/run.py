@@ -135,7 +135,11 @@ def judged(
     verdict = None if ended else truth(session, success)
     if verdict is None:
         return replace(result, timings=timings)
-    return replace(result, success=verdict, timings=timings, status=None, truth=verdict)
+    if getattr(session, "verdict_basis", "truth") == "perceived":  # no ground truth to judge on
+        return replace(result, success=verdict, timings=timings, status=None, basis="perceived")
+    return replace(
+        result, success=verdict, timings=timings, status=None, truth=verdict, basis="truth"
+    )
 
 
 __all__ = ["judged", "run", "run_once", "truth"]

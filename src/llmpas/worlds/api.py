@@ -56,6 +56,7 @@ class RunOptions:
     gui: bool = False  # open the simulator's window, where there is one
     snapshots: bool = True  # keep images where the world makes them
     robot_profile: str | None = None  # a robot's profile (a file or a shipped name), where used
+    site: str | None = None  # a site file (places, furniture, told objects, tasks), where used
 
     def __post_init__(self) -> None:
         if self.planner is not None and not math.isfinite(self.planner.max_time):

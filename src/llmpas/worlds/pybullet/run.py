@@ -19,16 +19,15 @@ import numpy as np
 
 from llmpas.execution.context import Belief
 from llmpas.files import atomic_write
-from llmpas.language.logic import Atom
-from llmpas.worlds.api import holds
+from llmpas.worlds.pybullet.facts import bottom, goal_holds, over, true_facts
 from llmpas.worlds.pybullet.problem import initial_belief
 from llmpas.worlds.pybullet.scene import (
-    RIM_MARGIN,
     TABLE_TOP,
     ObjectConfig,
     Scene,
     SceneConfig,
     TableConfig,
+    table_rect,
 )
 from llmpas.worlds.pybullet.snapshot import save_media
 from llmpas.worlds.pybullet.values import BaseConf, ObjectPose
@@ -71,8 +70,8 @@ class PyBulletScenario:
             return self.events
         out = []
         for e in self.events:
-            t = self.scene.table(e.table)
-            half = (0.5, 0.75) if abs(math.sin(t.yaw)) > 0.5 else (0.75, 0.5)
+            rect = table_rect(self.scene.table(e.table))
+            half = ((rect.x1 - rect.x0) / 2, (rect.y1 - rect.y0) / 2)
             dx, dy = rng.normal(0.0, self.event_jitter, 2)
             out.append(
                 replace(
@@ -100,6 +99,24 @@ def _four_tables() -> tuple[TableConfig, ...]:
         TableConfig("table2", 0.0, 1.9),
         TableConfig("table3", 0.0, -1.9),
         TableConfig("table4", -1.8, 0.0, math.pi / 2),
+    )
+
+
+def _workshop() -> SceneConfig:
+    """A workshop, laid out apart from the house: a workbench ahead of the robot's start (it
+    starts facing +y), a long counter to its right, a small cart behind it on the left; tables
+    of other sizes than pybullet_data's, a smaller blue block and a wider tray."""
+    return SceneConfig(
+        tables=(
+            TableConfig("workbench", 0.0, 1.7, 0.0, (1.2, 0.7)),
+            TableConfig("counter", 1.8, 0.2, 0.0, (0.7, 1.8)),
+            TableConfig("cart", -1.6, -0.6, 0.0, (0.8, 0.6)),
+        ),
+        objects=(
+            ObjectConfig("block", "cube", "workbench", 0.25, -0.15, "blue", 0.04),
+            ObjectConfig("tray", "bowl", "counter", -0.1, 0.35, "white", 0.2),
+        ),
+        base=(0.0, 0.0, math.pi / 2),
     )
 
 
@@ -163,6 +180,17 @@ def scenarios() -> dict[str, PyBulletScenario]:
                 unknown=("lid",),
             ),
             PyBulletScenario(
+                "workshop-moved",
+                "A workshop (workbench, counter, cart): put the blue block from the workbench "
+                "into the tray on the counter. While the robot drives to the workbench, someone "
+                "moves the block onto the counter beside the tray. The pick fails where the "
+                "robot was told the block was; it must find the block again and recover.",
+                _workshop(),
+                "(and (On block tray))",
+                seed=3,
+                events=(Event("move_base", 1, "block", "counter", -0.1, -0.45),),
+            ),
+            PyBulletScenario(
                 "action-blocking-seen",
                 "Action blocking the robot sees: put the green cube into the bowl. The bowl "
                 "already holds the black cube, which the robot does not know about; the bowl "
@@ -208,56 +236,6 @@ def belief_for(scene: Scene, scenario: PyBulletScenario, rng: np.random.Generato
     return initial_belief(scene.config, poses, BaseConf(x, y, t))
 
 
-def true_facts(scene: Scene) -> frozenset[Atom]:
-    """PyBullet's true state as facts, for the truth judge (:func:`llmpas.worlds.api.holds`):
-    ``(holding O)`` for the held object, ``(on O R)`` for an object at rest in region R (inside
-    a bowl's rim, its bottom below the rim; else on the table under it). An object over a bowl
-    higher up (on its rim, on something in it) is on neither."""
-    facts: set[Atom] = set()
-    for o in scene.config.objects:
-        if scene.held == o.name:
-            facts.add(Atom("holding", (o.name,)))
-            continue
-        at, _ = scene.pose(o.name)
-        region = _resting_in(scene, o.name, at)
-        if region is not None:
-            facts.add(Atom("on", (o.name, region)))
-    return frozenset(facts)
-
-
-def over(scene: Scene, name: str, bowl: str) -> bool:
-    """Whether object ``name`` is over the inside of ``bowl`` (in it, or above it)."""
-    at, _ = scene.pose(name)
-    pos, _ = scene.pose(bowl)
-    inner = scene.config.obj(bowl).size / 2 - 0.01
-    return bool(abs(at[0] - pos[0]) < inner and abs(at[1] - pos[1]) < inner)
-
-
-def bottom(scene: Scene, name: str) -> float:
-    """The z of an object's bottom (a graspable object's pose is its centre)."""
-    o = scene.config.obj(name)
-    at, _ = scene.pose(name)
-    return float(at[2]) - o.origin_height
-
-
-def _resting_in(scene: Scene, name: str, at: Any) -> str | None:
-    for bowl in scene.config.objects:
-        if bowl.kind != "bowl" or bowl.name == name or not over(scene, name, bowl.name):
-            continue
-        pos, _ = scene.pose(bowl.name)
-        rim = float(pos[2]) + bowl.height - RIM_MARGIN
-        return bowl.name if bottom(scene, name) < rim else None
-    for table, rect in scene.tables.items():
-        if rect.contains(float(at[0]), float(at[1])):
-            return table
-    return None
-
-
-def goal_holds(scene: Scene, goal: str) -> bool:
-    """Judge a goal (``(On cube bowl)``: the cube resting inside) in the true state."""
-    return holds(goal, true_facts(scene))
-
-
 def resolve(scenario: PyBulletScenario | str) -> PyBulletScenario:
     if isinstance(scenario, PyBulletScenario):
         return scenario
@@ -288,4 +266,5 @@ __all__ = [
     "save_world",
     "scenarios",
     "setup_scene",
+    "true_facts",
 ]

@@ -22,7 +22,6 @@ from types import MappingProxyType
 
 import numpy as np
 import pybullet as p
-import pybullet_data
 
 log = logging.getLogger(__name__)
 
@@ -80,14 +79,19 @@ def quiet_fds() -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def open_client(gui: bool = False) -> Iterator[int]:
-    """A fresh physics client (DIRECT unless ``gui``), disconnected on exit."""
+def open_client(gui: bool = False, data: bool = True) -> Iterator[int]:
+    """A fresh physics client (DIRECT unless ``gui``), disconnected on exit; ``data``: with
+    pybullet_data's models on its search path (a planning scene built from a robot's
+    description and a site needs none)."""
     with quiet_fds():
         cid = p.connect(p.GUI if gui else p.DIRECT)
     if cid < 0:
         raise RuntimeError("could not connect to PyBullet")
     try:
-        p.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=cid)
+        if data:
+            import pybullet_data
+
+            p.setAdditionalSearchPath(pybullet_data.getDataPath(), physicsClientId=cid)
         p.setGravity(0, 0, -9.81, physicsClientId=cid)
         yield cid
     finally:
@@ -106,10 +110,15 @@ class TableConfig:
     x: float
     y: float
     yaw: float = 0.0  # only 0 or pi/2 (axis-aligned footprints)
+    # the top's x, y extent (before yaw); None: pybullet_data's table (TABLE_SIZE); given: a
+    # table of boxes (a top and four legs), TABLE_TOP high
+    size: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         if not self.name:
             raise ValueError("a table needs a name")
+        if self.size is not None and not all(0.3 <= v <= 3.0 for v in self.size):
+            raise ValueError(f"table {self.name!r}: size {self.size} out of [0.3, 3] m")
         turns = self.yaw / (math.pi / 2)
         if abs(turns - round(turns)) > 1e-6:
             raise ValueError(f"table {self.name!r}: yaw must be a multiple of pi/2")
@@ -235,7 +244,7 @@ class Rect:
 
 
 def table_rect(t: TableConfig) -> Rect:
-    sx, sy = TABLE_SIZE
+    sx, sy = t.size or TABLE_SIZE
     if abs(math.sin(t.yaw)) > 0.5:
         sx, sy = sy, sx
     return Rect(t.x - sx / 2, t.y - sy / 2, t.x + sx / 2, t.y + sy / 2)
@@ -259,6 +268,9 @@ class Scene:
         self.husky, self.panda = self._load_robot()  # husky: the body the Panda stands on
         self.bodies["plane"] = p.loadURDF("plane.urdf", physicsClientId=client)
         for t in config.tables:
+            if t.size is not None:
+                self.bodies[t.name] = self._box_table(t)
+                continue
             with quiet_fds():
                 self.bodies[t.name] = p.loadURDF(
                     "table/table.urdf",
@@ -321,6 +333,30 @@ class Scene:
             physicsClientId=c,
         )
         return int(p.createMultiBody(0.0, col, vis, [0, 0, 0], physicsClientId=c))
+
+    def _box_table(self, t: TableConfig) -> int:
+        """A table of ``t.size``: a 4 cm top whose surface is TABLE_TOP high, four legs."""
+        assert t.size is not None
+        hx, hy, top = t.size[0] / 2, t.size[1] / 2, 0.02
+        leg = (TABLE_TOP - 2 * top) / 2
+        half = [[hx, hy, top]] + [[0.03, 0.03, leg]] * 4
+        pos = [[0.0, 0.0, TABLE_TOP - top]] + [
+            [sx * (hx - 0.06), sy * (hy - 0.06), leg] for sx in (-1, 1) for sy in (-1, 1)
+        ]
+        c, n = self.client, len(half)
+        col = p.createCollisionShapeArray(
+            [p.GEOM_BOX] * n, halfExtents=half, collisionFramePositions=pos, physicsClientId=c
+        )
+        vis = p.createVisualShapeArray(
+            [p.GEOM_BOX] * n,
+            halfExtents=half,
+            visualFramePositions=pos,
+            rgbaColors=[[0.55, 0.4, 0.25, 1.0]] * n,
+            physicsClientId=c,
+        )
+        return int(
+            p.createMultiBody(0.0, col, vis, [t.x, t.y, 0.0], _quat(t.yaw), physicsClientId=c)
+        )
 
     def _load_object(self, o: ObjectConfig) -> int:
         c = self.client

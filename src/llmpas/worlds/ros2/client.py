@@ -2,7 +2,7 @@
 
 :class:`RosRobot` is an :class:`~llmpas.execution.world.Robot` and a
 :class:`~llmpas.execution.world.Perception` whose calls become goals of the robot's action
-servers (names in :mod:`llmpas.worlds.ros2.node`): the base is Nav2's ``NavigateToPose``, the
+servers (names in :mod:`llmpas.worlds.ros2.names`): the base is Nav2's ``NavigateToPose``, the
 arm's named configuration (home) ros2_control's ``FollowJointTrajectory``, the rest the project's
 ``Skill`` and ``Look`` actions. A skill sends its goal and returns a :class:`RosGoal`, the
 executor's handle: each tick polls it (the node's executor spins in its own thread, so feedback
@@ -29,7 +29,7 @@ from llmpas.execution.world import Observation, Outcome, SkillResult, finish
 from llmpas.worlds.pybullet.scene import Scene
 from llmpas.worlds.pybullet.values import ArmGoal, BaseConf, ObjectPose
 from llmpas.worlds.ros2 import convert
-from llmpas.worlds.ros2.node import ACTIONS, FJT, GRIPPER, LOOK, NAV, SKILL, STATE, action_names
+from llmpas.worlds.ros2.names import ACTIONS, FJT, GRIPPER, LOOK, NAV, SKILL, STATE, action_names
 from llmpas.worlds.ros2.profile import RobotProfile
 from llmpas.worlds.ros2.spin import Spinner
 
@@ -158,6 +158,8 @@ class Timeouts:
     accept: float = 30.0
     goal: float = 300.0
     lost: float = 3.0
+    settle: float = 1.0  # for joint states stamped after a goal's result (a standard robot)
+    cancel: float = 2.0  # for the reply to a cancel (waited for off the tick's thread)
 
 
 class RosRobot:

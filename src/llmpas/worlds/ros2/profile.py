@@ -212,6 +212,7 @@ class RobotProfile:
     interfaces: str = "llmpas"
     namespace: str = ""
     rmw: str = ""  # "": the user's RMW_IMPLEMENTATION (else ROS 2's default)
+    use_sim_time: bool = False  # the client node's clock follows /clock (a simulated robot's)
     frames: Frames = field(default_factory=Frames)
     actions: Actions = field(default_factory=Actions)
     topics: Topics = field(default_factory=Topics)
@@ -332,6 +333,12 @@ def _points(raw: Any, key: str) -> tuple[tuple[float, float], ...]:
     return tuple(out)
 
 
+def _bool(raw: Any, key: str) -> bool:
+    if not isinstance(raw, bool):
+        raise ProfileError(f"{key}: true or false")
+    return raw
+
+
 def _floats_of(n: int | None) -> Callable[[Any, str], tuple[float, ...]]:
     return lambda raw, key: _floats(raw, key, n)
 
@@ -351,6 +358,7 @@ def parse(raw: Any, source: str = "") -> RobotProfile:
             lambda v, k: _build(Furniture, v, k, {"size": _floats_of(3), "pose": _floats_of(4)})
         ),
         "looks": _list(lambda v, k: _build(Look, v, k, {"joints": _floats_of(None)})),
+        "use_sim_time": _bool,
     }
     if isinstance(raw, dict) and "source" in raw:
         raise ProfileError("source: unknown key")

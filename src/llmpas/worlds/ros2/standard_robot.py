@@ -38,10 +38,10 @@ from llmpas.worlds.pybullet.values import ArmGoal, BaseConf, ObjectPose
 from llmpas.worlds.pybullet.world import goal_height, look_orientation, near_graspable
 from llmpas.worlds.ros2 import convert
 from llmpas.worlds.ros2.client import RobotUnavailableError, Timeouts
-from llmpas.worlds.ros2.node import FJT, GRIPPER, NAV, STANDARD, action_names
+from llmpas.worlds.ros2.names import FJT, GRIPPER, NAV, STANDARD, action_names
+from llmpas.worlds.ros2.nav2 import nav2_reason
 from llmpas.worlds.ros2.profile import CAMERAS, Place, RobotProfile
 from llmpas.worlds.ros2.spin import Spinner
-from llmpas.worlds.ros2.standard import nav2_reason
 from llmpas.worlds.ros2.tf import TfBuffer, TfError, Transform
 
 log = logging.getLogger(__name__)
@@ -62,20 +62,61 @@ class Send:
     check: Callable[[Any], SkillResult | None] = lambda raw: None
 
 
-Step = Callable[[], "Send | SkillResult | None"]
+class Later:
+    """Work a step runs off the tick's thread (planning a trajectory): ``poll()`` is None
+    until it is done, then the step's outcome (a :class:`Send`, a :class:`SkillResult`, or
+    None to go on)."""
+
+    def __init__(self, robot: StandardRobot, work: Callable[[], Send | SkillResult | None]) -> None:
+        self.outcome: list[Send | SkillResult | None] = []
+        self.error: list[BaseException] = []
+        robot.planning += 1
+
+        def run() -> None:
+            try:
+                with robot.scene_lock:
+                    self.outcome.append(work())
+            except BaseException as e:  # re-raised on the tick's thread
+                self.error.append(e)
+            finally:
+                robot.planning -= 1
+
+        self.thread = threading.Thread(target=run, daemon=True, name="llmpas-plan")
+        self.thread.start()
+
+    @property
+    def done(self) -> bool:
+        return bool(self.outcome or self.error)
+
+    def poll(self) -> Send | SkillResult | None:
+        if self.error:
+            raise self.error[0]
+        return self.outcome[0]
+
+
+Step = Callable[[], "Send | SkillResult | Later | None"]
 
 
 class Steps:
     """A skill as goals sent one after another (a step returns a :class:`Send`, a final
-    :class:`SkillResult`, or None to go on). ``poll()`` never blocks: None while running."""
+    :class:`SkillResult`, work to run off the tick's thread (:class:`Later`), or None to go
+    on). ``poll()`` never blocks: RUNNING while a goal or the work is under way."""
 
     def __init__(self, robot: StandardRobot, steps: list[Step], done: SkillResult) -> None:
         self.robot, self.steps, self.done = robot, list(steps), done
         self.final: SkillResult | None = None
         self.current: _Goal | None = None
+        self.later: Later | None = None
 
     def poll(self) -> SkillResult:
         while self.final is None:
+            if self.later is not None:
+                if not self.later.done:
+                    self.robot.polls_planning += 1
+                    return SkillResult.still_running("planning a trajectory")
+                later, self.later = self.later, None
+                self._take(later.poll())
+                continue
             if self.current is not None:
                 raw = self.current.poll()
                 if raw is None:
@@ -91,15 +132,20 @@ class Steps:
             if not self.steps:
                 self.final = self.done
                 break
-            out = self.steps.pop(0)()
-            if isinstance(out, SkillResult):
-                self.final = out
-            elif isinstance(out, Send):
-                self.current = _Goal(self.robot, out)
+            self._take(self.steps.pop(0)())
         return self.final
 
+    def _take(self, out: Send | SkillResult | Later | None) -> None:
+        if isinstance(out, SkillResult):
+            self.final = out
+        elif isinstance(out, Send):
+            self.current = _Goal(self.robot, out)
+        elif isinstance(out, Later):
+            self.later = out
+
     def cancel(self) -> None:
-        """Cancel the goal under way on the robot; the skill ends (cancelled)."""
+        """Cancel the goal under way on the robot (off the tick's thread); the skill ends
+        (cancelled)."""
         if self.final is not None:
             return
         if self.current is not None:
@@ -108,7 +154,8 @@ class Steps:
 
 
 class _Goal:
-    """One goal under way (sent when made)."""
+    """One goal: sent once its server is there (polled: never waited for), then polled until
+    its result and the joint states stamped after it have come."""
 
     def __init__(self, robot: StandardRobot, send: Send) -> None:
         self.robot, self.send, self.check = robot, send, send.check
@@ -116,13 +163,15 @@ class _Goal:
         self.client = robot.clients[send.action]
         self.handle: Any = None
         self.result: Any = None
+        self.wrapped: Any = None
+        self.after: float | None = None  # the robot's latest stamp when the result came
         self.gone: float | None = None
         self.sent: Any = None
         self.failed: SkillResult | None = None
-        if not self.client.server_is_ready() and not self.client.wait_for_server(
-            timeout_sec=robot.timeouts.lost
-        ):
-            raise robot.lost_error(send.action, "is gone")
+        self.deadline = time.monotonic() + robot.timeouts.lost  # for the server to be there
+
+    def _send(self, now: float) -> None:
+        robot, send = self.robot, self.send
         robot.goals += 1
         robot.moved(send.action)
         robot.on_goal(f"{self.name}/goal", "Goal", send.goal)
@@ -134,7 +183,16 @@ class _Goal:
                 ),
             )
         )
-        self.deadline = time.monotonic() + robot.timeouts.accept
+        self.deadline = now + robot.timeouts.accept
+
+    def _watch(self, now: float, what: str) -> None:
+        """The server's presence: gone for longer than ``timeouts.lost`` ends the run."""
+        if self.client.server_is_ready():
+            self.gone = None
+        elif self.gone is None:
+            self.gone = now
+        elif now - self.gone > self.robot.timeouts.lost:
+            raise self.robot.lost_error(self.send.action, what)
 
     def poll(self) -> SkillResult | Any | None:
         """None while running; a failure; or the action's result (it succeeded)."""
@@ -143,31 +201,40 @@ class _Goal:
         if self.failed is not None:
             return self.failed
         now = time.monotonic()
+        if self.sent is None:  # the server not there yet (discovery, polled)
+            if self.client.server_is_ready():
+                self._send(now)
+            elif now > self.deadline:
+                raise self.robot.lost_error(self.send.action, "is gone")
+            return None
         if self.handle is None:
             if not self.sent.done():
+                self.robot.polls_accepting += 1
+                self._watch(now, "vanished before accepting a goal")
                 return self._late(now, "did not answer the goal", "lost")
             handle = self.sent.result()
             if not handle.accepted:
                 return SkillResult.failure(f"{self.name} rejected the goal", reason="rejected")
             self.handle, self.result = handle, self.robot.request(handle.get_result_async)
             self.deadline = now + self.robot.timeouts.goal
-        if not self.result.done():
-            if now > self.deadline:
-                self.cancel()
-                return SkillResult.failure(f"{self.name} timed out", reason="timeout")
-            if self.client.server_is_ready():
-                self.gone = None
-            elif self.gone is None:
-                self.gone = now
-            elif now - self.gone > self.robot.timeouts.lost:
-                raise self.robot.lost_error(self.send.action, "vanished during a goal")
+        if self.wrapped is None:
+            if not self.result.done():
+                if now > self.deadline:
+                    self.cancel()
+                    return SkillResult.failure(f"{self.name} timed out", reason="timeout")
+                self._watch(now, "vanished during a goal")
+                return None
+            self.wrapped = self.result.result()
+            self.robot.on_goal(f"{self.name}/result", "Result", self.wrapped.result)
+            self.after = self.robot.latest_stamp()
+            self.deadline = now + self.robot.timeouts.settle
+        # joint states stamped after the result (the robot's own clock), polled
+        if self.robot.joints_stamp <= (self.after or 0.0) and now <= self.deadline:
             return None
-        wrapped = self.result.result()
-        self.robot.on_goal(f"{self.name}/result", "Result", wrapped.result)
-        self.robot.settle(time.monotonic())
-        if wrapped.status == GoalStatus.STATUS_SUCCEEDED:
-            return wrapped.result
-        return self.robot.failure(self.send.action, wrapped)
+        self.robot.sync()
+        if self.wrapped.status == GoalStatus.STATUS_SUCCEEDED:
+            return self.wrapped.result
+        return self.robot.failure(self.send.action, self.wrapped)
 
     def _late(self, now: float, what: str, reason: str) -> SkillResult | None:
         if now > self.deadline:
@@ -175,9 +242,27 @@ class _Goal:
         return None
 
     def cancel(self) -> None:
-        if self.handle is not None:
-            future = self.robot.request(self.handle.cancel_goal_async)
-            self.robot.wait(future, 2.0)
+        """Ask the server to cancel, off the tick's thread (a goal not accepted yet is
+        cancelled once it is)."""
+        robot, sent, handle = self.robot, self.sent, self.handle
+        if sent is None:
+            return  # never sent
+
+        def cancel() -> None:
+            goal = handle
+            if goal is None:
+                if not robot.wait(sent, robot.timeouts.accept):
+                    return
+                goal = sent.result()
+                if not goal.accepted:
+                    return
+            reply = robot.request(goal.cancel_goal_async)
+            robot.cancels += 1
+            if not robot.wait(reply, robot.timeouts.cancel):
+                log.warning("%s: no reply to a cancel within %g s", self.name,
+                            robot.timeouts.cancel)  # fmt: skip
+
+        threading.Thread(target=cancel, daemon=True, name="llmpas-cancel").start()
 
 
 class RecordingSkills(Skills):
@@ -204,12 +289,15 @@ class StandardRobot:
     def __init__(
         self,
         context: Any,
-        scene: Scene,
+        scene: Scene | None,
         profile: RobotProfile,
         rng: np.random.Generator,
         timeouts: Timeouts | None = None,
         on_goal: Callable[[str, str, Any], None] | None = None,
+        build_scene: Callable[[str, tuple[float, float, float]], Scene] | None = None,
     ) -> None:
+        """``scene``: the planning scene; None: ``build_scene(description, base)`` makes it
+        once the robot's description and its pose in the map have come."""
         import rclpy
         from control_msgs.action import FollowJointTrajectory, GripperCommand
         from nav2_msgs.action import NavigateToPose
@@ -219,11 +307,21 @@ class StandardRobot:
         from tf2_msgs.msg import TFMessage
         from vision_msgs.msg import Detection3DArray
 
-        self.scene, self.profile = scene, profile
+        if scene is None and build_scene is None:
+            raise ValueError("a planning scene or a way to build one")
+        self.build_scene = build_scene
+        self.rng = rng
+        self.profile = profile
         self.timeouts = timeouts or Timeouts()
         self.on_goal = on_goal or (lambda channel, kind, msg: None)
+        from rclpy.parameter import Parameter
+
+        sim_time = [Parameter("use_sim_time", Parameter.Type.BOOL, True)]
         self.node = rclpy.create_node(
-            "llmpas_client", context=context, namespace=profile.namespace or None
+            "llmpas_client",
+            context=context,
+            namespace=profile.namespace or None,
+            parameter_overrides=sim_time if profile.use_sim_time else [],
         )
         self.types = {NAV: NavigateToPose, FJT: FollowJointTrajectory, GRIPPER: GripperCommand}
         self.clients = {
@@ -233,7 +331,13 @@ class StandardRobot:
         self.tf = TfBuffer()
         self.lock = threading.Lock()
         self.joints: dict[str, float] = {}
-        self.joints_at = 0.0  # monotonic time the last joint_states came
+        self.joints_stamp = 0.0  # the last joint_states' stamp (the robot's clock)
+        self.stamp = 0.0  # the latest stamp of anything the robot sent (its clock)
+        self.scene_lock = threading.RLock()  # the planning scene: planning vs. the tick
+        self.planning = 0  # trajectories being planned off the tick's thread
+        self.polls_planning = 0  # polls answered RUNNING while a trajectory was planned
+        self.polls_accepting = 0  # ... while a goal waited to be accepted
+        self.cancels = 0  # cancel requests sent
         self.description = ""
         self.detections: dict[str, tuple[float, Any]] = {}  # topic key -> (arrival, msg)
         t = profile.topics
@@ -251,17 +355,28 @@ class StandardRobot:
                 sub(Detection3DArray, topic.name, self._detector(key), topic.qos.rclpy())
             )
         self.spinner = Spinner(self.node, context)  # requests and replies under one lock
-        self.skills = RecordingSkills(scene, rng)
-        self.believed: tuple[float, float, float] = scene.config.base
+        self.scene: Scene = scene  # type: ignore[assignment]  # built at connection if None
+        # built at connection with the scene if None
+        self.skills: RecordingSkills = RecordingSkills(scene, rng) if scene else None  # type: ignore[assignment]
+        self.believed: tuple[float, float, float] = (
+            scene.config.base if scene is not None else (0.0, 0.0, 0.0)
+        )
         self.log: list[str] = []
         self.frames: list[Any] = []
         self.images: list[Any] = []
         self.clock: Callable[[], tuple[int, int]] = lambda: (0, 0)
         self.goals = 0
-        # per camera, the wall time of the last goal that changed its view (older detections
-        # are stale): the base or the hand (objects move) changes both, the arm the wrist's
+        # per camera, the robot's latest stamp when the last goal that changed its view was
+        # sent (detections stamped before are stale): the base or the hand (objects move)
+        # changes both, the arm the wrist's. Stamps are compared with stamps, never with this
+        # process's clock (simulated time, a clock offset between machines)
         self.moved_at = {camera: 0.0 for camera in CAMERAS}
         self.places: tuple[Place, ...] = ()  # the profile's, in map (once TF has them)
+        # an object detected that the planning scene does not hold: (class id, where, size)
+        # -> whether it was added to the scene (None: such detections are ignored)
+        self.discover: (
+            Callable[[str, tuple[float, float, float], tuple[float, float, float]], bool] | None
+        ) = None
 
     # ------------------------------------------------------------------ the graph
 
@@ -277,8 +392,10 @@ class StandardRobot:
             tr, r = t.transform.translation, t.transform.rotation
             try:
                 value = Transform((tr.x, tr.y, tr.z), (r.x, r.y, r.z, r.w))
-                self.tf.add(t.header.frame_id, t.child_frame_id, stamp_seconds(t.header.stamp),
-                            value, static)  # fmt: skip
+                stamp = stamp_seconds(t.header.stamp)
+                self.tf.add(t.header.frame_id, t.child_frame_id, stamp, value, static)
+                if not static:
+                    self.stamp = max(self.stamp, stamp)
             except ValueError as e:
                 log.warning("ignoring a transform %s -> %s: %s", t.header.frame_id,
                             t.child_frame_id, e)  # fmt: skip
@@ -287,7 +404,8 @@ class StandardRobot:
         with self.lock:
             for name, q in zip(msg.name, msg.position, strict=False):
                 self.joints[name] = float(q)
-            self.joints_at = time.monotonic()
+            self.joints_stamp = stamp_seconds(msg.header.stamp)
+            self.stamp = max(self.stamp, self.joints_stamp)
 
     def _description(self, msg: Any) -> None:
         self.description = str(msg.data)
@@ -330,6 +448,11 @@ class StandardRobot:
                     raise RobotUnavailableError(f"no {what} within {self.timeouts.discover:g} s")
                 time.sleep(0.02)
         self._check_description()
+        if self.build_scene is not None and self.scene is None:
+            base = self.tf.lookup(f.map, f.base)
+            x, y, _ = base.translation
+            self.scene = self.build_scene(self.description, (x, y, base.yaw))
+            self.skills = RecordingSkills(self.scene, self.rng)
         self._static_geometry()
         self.sync()
 
@@ -389,16 +512,16 @@ class StandardRobot:
                         f"limits [{lo}, {hi}]"
                     )
 
-    def settle(self, after: float, seconds: float = 1.0) -> None:
-        """Wait (a little) for joint states newer than ``after``, then read the robot's
-        state into the planning scene."""
-        end = time.monotonic() + seconds
-        while self.joints_at <= after and time.monotonic() < end:
-            time.sleep(0.005)
-        self.sync()
+    def latest_stamp(self) -> float:
+        """The latest stamp of anything the robot sent (TF, joint states): its clock, now."""
+        return self.stamp
 
     def sync(self) -> None:
         """The planning scene's base from TF and its arm from joint_states."""
+        with self.scene_lock:
+            self._sync()
+
+    def _sync(self) -> None:
         f = self.profile.frames
         try:
             base = self.tf.lookup(f.map, f.base)
@@ -490,7 +613,7 @@ class StandardRobot:
             out = step()
             return out if isinstance(out, Send) or not out.ok else None
 
-        return wrapped
+        return lambda: Later(self, wrapped)  # planned off the tick's thread
 
     def _gripper(self, position: float, effort: float, check: Callable[[Any], Any]) -> Step:
         def step() -> Send:
@@ -597,7 +720,7 @@ class StandardRobot:
     # ------------------------------------------------------------------ Perception
 
     def moved(self, action: str) -> None:
-        now = time.time()
+        now = self.latest_stamp()
         for camera in self.moved_at:
             if action != FJT or camera != "mast":
                 self.moved_at[camera] = now
@@ -611,13 +734,17 @@ class StandardRobot:
         while time.monotonic() < end:
             with self.lock:
                 got = self.detections.get(look.detections)
-            if got is not None and stamp_seconds(got[1].header.stamp) >= self.moved_at[camera]:
+            if got is not None and stamp_seconds(got[1].header.stamp) > self.moved_at[camera]:
                 return got[1]
             time.sleep(0.01)
         log.warning("no fresh detections on %s within %g s", look.detections, look.wait)
         return None
 
     def observation(self, msg: Any) -> Observation:
+        with self.scene_lock:
+            return self._observation(msg)
+
+    def _observation(self, msg: Any) -> Observation:
         """A Detection3DArray as an observation in ``map``: poses through TF at the message's
         stamp; a place's class id is a place in view; the region of an object from the
         places' footprints (a bowl's inside when it is in one)."""
@@ -639,11 +766,15 @@ class StandardRobot:
             if name in places:
                 viewed.add(name)
                 continue
-            if name not in known:
-                continue
             pos = best.pose.pose.position
             x, y, z = to_map.apply((pos.x, pos.y, pos.z))
-            seen[name] = ((round(x, 4), round(y, 4), round(z, 4)), float(best.hypothesis.score))
+            at = (round(x, 4), round(y, 4), round(z, 4))
+            if name not in known:  # neither told of nor seen before: the session may add it
+                size = (float(d.bbox.size.x), float(d.bbox.size.y), float(d.bbox.size.z))
+                if self.discover is None or not self.discover(name, at, size):
+                    continue
+                known = {o.name: o for o in self.scene.config.objects}
+            seen[name] = (at, float(best.hypothesis.score))
         bowls = {n: at for n, (at, _) in seen.items() if known[n].kind == "bowl"}
         viewed |= set(bowls)
         dets = []

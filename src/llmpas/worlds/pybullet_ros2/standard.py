@@ -5,6 +5,7 @@ would publish on a real robot). Message classes are imported where a message is 
 from __future__ import annotations
 
 import math
+import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
 
@@ -13,49 +14,13 @@ import pybullet_data
 
 from llmpas.execution.world import Observation, SkillResult
 from llmpas.worlds.pybullet.camera import MAST, detect, look_at, wrist_image
-from llmpas.worlds.pybullet.scene import TABLE_TOP
+from llmpas.worlds.pybullet.scene import MOUNT_OFFSET, TABLE_TOP
 from llmpas.worlds.pybullet.world import PyBulletWorld
+from llmpas.worlds.ros2.nav2 import NO_VALID_PATH, nav2_reason
 from llmpas.worlds.ros2.profile import RobotProfile
 from llmpas.worlds.ros2.tf import Transform
 
 CAMERA_FRAME = "mast_camera_link"
-
-# Nav2 (Jazzy): the navigator's result carries the failing task server's code:
-# nav2_msgs/action/ComputePathToPose 200-208, FollowPath 100-106, the navigator's own 9000s.
-PLANNER_CODES = {
-    200: "unknown",
-    201: "invalid_planner",
-    202: "tf",
-    203: "start_outside_map",
-    204: "blocked",  # GOAL_OUTSIDE_MAP
-    205: "start_occupied",
-    206: "blocked",  # GOAL_OCCUPIED
-    207: "timeout",
-    208: "blocked",  # NO_VALID_PATH
-}
-CONTROLLER_CODES = {
-    100: "unknown",
-    101: "invalid_controller",
-    102: "tf",
-    103: "invalid_path",
-    104: "stuck",  # PATIENCE_EXCEEDED
-    105: "stuck",  # FAILED_TO_MAKE_PROGRESS
-    106: "stuck",  # NO_VALID_CONTROL
-}
-NO_VALID_PATH = 208
-
-
-def nav2_reason(code: int) -> str:
-    """The failure's reason for a NavigateToPose ``error_code`` (``aborted`` when unknown)."""
-    if code in PLANNER_CODES:
-        return PLANNER_CODES[code]
-    if code in CONTROLLER_CODES:
-        return CONTROLLER_CODES[code]
-    if code == 9003:
-        return "timeout"
-    if code == 9002:
-        return "tf"
-    return "aborted"
 
 
 def nav2_error_code(result: SkillResult) -> int:
@@ -64,9 +29,94 @@ def nav2_error_code(result: SkillResult) -> int:
 
 
 def robot_description() -> str:
-    """The robot's URDF as robot_state_publisher latches it (the Panda arm llmpas plans for)."""
-    path = Path(pybullet_data.getDataPath()) / "franka_panda" / "panda.urdf"
-    return path.read_text(encoding="utf-8")
+    """The robot's URDF as robot_state_publisher latches it: ``base_link`` (the Husky, a box),
+    fixed to ``panda_link0`` at the mount, and the Panda arm and hand. As on a real robot, the
+    visual meshes are ``package://`` references a client cannot read, and collisions are
+    primitives (each collision mesh's bounding box, as franka_description's primitive
+    collision model does), so that a client plans with the description alone."""
+    data = Path(pybullet_data.getDataPath())
+    root = ET.fromstring((data / "franka_panda" / "panda.urdf").read_text(encoding="utf-8"))
+    for element in root.iter():
+        if element.tag not in ("visual", "collision"):
+            continue
+        geometry = element.find("geometry")
+        mesh = None if geometry is None else geometry.find("mesh")
+        if geometry is None or mesh is None:
+            continue
+        filename = mesh.get("filename", "").removeprefix("package://")
+        if element.tag == "visual":
+            mesh.set("filename", f"package://franka_panda/{filename}")
+            continue
+        lo, hi = _obj_bounds(data / "franka_panda" / filename)
+        origin = element.find("origin")
+        rpy = (
+            [0.0, 0.0, 0.0]
+            if origin is None
+            else [float(v) for v in origin.get("rpy", "0 0 0").split()]
+        )
+        xyz = (
+            [0.0, 0.0, 0.0]
+            if origin is None
+            else [float(v) for v in origin.get("xyz", "0 0 0").split()]
+        )
+        centre = (lo + hi) / 2
+        turn = rpy[2]  # the finger's collision is turned about z only
+        c, s = math.cos(turn), math.sin(turn)
+        at = [xyz[0] + c * centre[0] - s * centre[1], xyz[1] + s * centre[0] + c * centre[1],
+              xyz[2] + centre[2]]  # fmt: skip
+        if origin is None:
+            origin = ET.SubElement(element, "origin")
+        origin.set("xyz", " ".join(f"{v:.5f}" for v in at))
+        origin.set("rpy", f"0 0 {turn:.6f}")
+        geometry.remove(mesh)
+        ET.SubElement(geometry, "box", size=" ".join(f"{v:.5f}" for v in hi - lo))
+    half, centre = _base_box()
+    base = ET.Element("link", name="base_link")
+    collision = ET.SubElement(base, "collision")
+    ET.SubElement(collision, "origin", xyz=" ".join(f"{v:.4f}" for v in centre), rpy="0 0 0")
+    ET.SubElement(ET.SubElement(collision, "geometry"), "box",
+                  size=" ".join(f"{2 * v:.4f}" for v in half))  # fmt: skip
+    mount = ET.Element("joint", name="base_to_panda", type="fixed")
+    ET.SubElement(mount, "parent", link="base_link")
+    ET.SubElement(mount, "child", link="panda_link0")
+    ET.SubElement(mount, "origin", xyz=" ".join(f"{v:g}" for v in MOUNT_OFFSET), rpy="0 0 0")
+    root.insert(0, mount)
+    root.insert(0, base)
+    root.set("name", "husky_panda")
+    return ET.tostring(root, encoding="unicode")
+
+
+def _obj_bounds(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """The bounding box of a Wavefront OBJ mesh's vertices."""
+    points = [
+        [float(v) for v in line.split()[1:4]]
+        for line in path.read_text(encoding="utf-8", errors="replace").splitlines()
+        if line.startswith("v ")
+    ]
+    array = np.array(points)
+    return array.min(axis=0), array.max(axis=0)
+
+
+def _base_box() -> tuple[list[float], list[float]]:
+    """The Husky's bounding box in its own frame (half extents, centre), from pybullet_data's
+    model (the simulator's, never sent as a file)."""
+    import pybullet as p
+
+    from llmpas.worlds.pybullet.scene import quiet_fds
+
+    with quiet_fds():
+        cid = p.connect(p.DIRECT)
+    try:
+        path = str(Path(pybullet_data.getDataPath()) / "husky" / "husky.urdf")
+        with quiet_fds():
+            body = p.loadURDF(path, [0, 0, 0], useFixedBase=True, physicsClientId=cid)
+        boxes = [p.getAABB(body, link, physicsClientId=cid)
+                 for link in range(-1, p.getNumJoints(body, physicsClientId=cid))]  # fmt: skip
+    finally:
+        p.disconnect(physicsClientId=cid)
+    lo = np.min([b[0] for b in boxes], axis=0)
+    hi = np.max([b[1] for b in boxes], axis=0)
+    return [float(v) for v in (hi - lo) / 2], [float(v) for v in (hi + lo) / 2]
 
 
 def _transform_msg(parent: str, child: str, t: Transform, stamp: Any) -> Any:

@@ -26,6 +26,7 @@ or hold it until it is cancelled.
 from __future__ import annotations
 
 import logging
+import signal
 import threading
 import time
 from collections.abc import Callable
@@ -40,26 +41,22 @@ from llmpas.worlds.pybullet.run import PyBulletScenario, resolve, setup_scene
 from llmpas.worlds.pybullet.scene import FINGER_OPEN, Scene, open_client
 from llmpas.worlds.pybullet.values import ArmGoal, Grasp
 from llmpas.worlds.pybullet.world import PyBulletWorld
-from llmpas.worlds.ros2 import convert, standard
+from llmpas.worlds.pybullet_ros2 import standard
+from llmpas.worlds.ros2 import convert
 from llmpas.worlds.ros2.env import RosEnv, reclaim_shared_memory
+from llmpas.worlds.ros2.names import (
+    ACTIONS,
+    FJT,
+    GRIPPER,
+    LOOK,
+    NAV,
+    SKILL,
+    STATE,
+    action_names,
+)
 from llmpas.worlds.ros2.profile import LATCHED, RobotProfile
 
 log = logging.getLogger(__name__)
-
-NAV = "navigate_to_pose"
-FJT = "arm_controller/follow_joint_trajectory"
-GRIPPER = "gripper_controller/gripper_cmd"
-SKILL = "llmpas/skill"
-LOOK = "llmpas/look"
-STATE = "llmpas/scene_state"
-ACTIONS = (NAV, FJT, GRIPPER, SKILL, LOOK)
-STANDARD = (NAV, FJT, GRIPPER)  # the actions a standard robot serves
-
-
-def action_names(profile: RobotProfile) -> dict[str, str]:
-    """Each action's name on this robot (relative names resolve in the node's namespace)."""
-    a = profile.actions
-    return {NAV: a.navigate, FJT: a.arm, GRIPPER: a.gripper, SKILL: a.skill, LOOK: a.look}
 
 
 @dataclass(frozen=True)
@@ -69,6 +66,7 @@ class Faults:
     reject: frozenset[str] = frozenset()
     abort: frozenset[str] = frozenset()
     stall: frozenset[str] = frozenset()
+    hold_accept: Path | None = None  # accept no goal before this file exists (a slow server)
 
 
 def build_world(scenario: PyBulletScenario, seed: int, client: int) -> PyBulletWorld:
@@ -229,6 +227,13 @@ class RobotNode:
         if kind in self.faults.reject:
             log.warning("rejecting a %s goal (fault)", kind)
             return self._accept.REJECT
+        gate = self.faults.hold_accept
+        if gate is not None and not gate.exists():
+            log.warning("holding a %s goal's acceptance until %s exists (fault)", kind, gate)
+            end = time.monotonic() + 120.0
+            while not gate.exists() and time.monotonic() < end:
+                time.sleep(0.01)
+            log.warning("accepting the held %s goal", kind)
         return self._accept.ACCEPT
 
     def _hold(self, handle: Any, kind: str) -> bool:
@@ -500,8 +505,10 @@ def serve(
     faults: Faults,
     ready: Path | None = None,
     profile: RobotProfile | None = None,
+    truth: Path | None = None,
 ) -> None:
-    """Build the simulator and serve it until SIGINT/SIGTERM (rclpy's handlers end the spin)."""
+    """Build the simulator and serve it until SIGINT/SIGTERM (rclpy's handlers end the spin);
+    then write the true final state to ``truth``."""
     env.apply()
     reclaim_shared_memory()  # what killed nodes left in /dev/shm
     import rclpy
@@ -531,6 +538,7 @@ def serve(
         )
         if ready is not None:
             ready.write_text(f"{robot.goals}\n")
+        signal.signal(signal.SIGTERM, _interrupt)  # SIGTERM ends the spin as SIGINT does
         try:
             executor.spin()
         except (KeyboardInterrupt, ExternalShutdownException):
@@ -539,12 +547,37 @@ def serve(
             executor.shutdown()
             node.destroy_node()
             context.try_shutdown()
+            if truth is not None:
+                write_truth(truth, world, chosen.name, chosen.goal)
 
 
-if __name__ == "__main__":  # the robot's process (session.robot_process): one parser, command's
-    from llmpas.worlds.ros2.command import main
+def _interrupt(signum: int, frame: Any) -> None:
+    raise KeyboardInterrupt
 
-    raise SystemExit(main())
+
+def write_truth(path: Path, world: Any, scenario: str, goal: str) -> None:
+    """The simulator's true state as JSON (atomically): its facts and whether the scenario's
+    goal holds in them."""
+    import json
+
+    from llmpas.files import atomic_write
+    from llmpas.worlds.api import holds
+    from llmpas.worlds.pybullet.facts import true_facts
+
+    facts = true_facts(world.scene)
+    about = {
+        "scenario": scenario,
+        "goal": goal,
+        "goal_holds": holds(goal, facts),
+        "facts": sorted(str(f) for f in facts),
+        "held": world.scene.held,
+        "poses": {  # every object's position in the map (m)
+            o.name: [round(float(v), 4) for v in world.scene.pose(o.name)[0]]
+            for o in world.scene.config.objects
+        },
+    }
+    atomic_write(path, json.dumps(about, indent=2))
+    log.info("wrote the true final state to %s", path)
 
 
 __all__ = [

@@ -2,7 +2,7 @@
 
 The ROS 2 world's own command, registered in :data:`llmpas.experiments.worlds.ROBOTS`; the
 command line hands it everything after ``llmpas robot pybullet`` and this module's parser is the
-only one (``python -m llmpas.worlds.ros2.node`` uses it too).
+only one (``python -m llmpas.worlds.pybullet_ros2`` uses it too).
 """
 
 from __future__ import annotations
@@ -32,6 +32,12 @@ def parser(prog: str = "llmpas robot pybullet") -> argparse.ArgumentParser:
     p.add_argument("--log-dir", help="ROS_LOG_DIR and the node's files (default: a temp folder)")
     p.add_argument("--ready", help="write this file once every server is up")
     p.add_argument(
+        "--truth",
+        metavar="FILE",
+        help="write the simulator's true final state here when the robot stops (JSON: facts, "
+        "the scenario's goal and whether it holds), to check a client's perceived verdict",
+    )
+    p.add_argument(
         "--robot-profile",
         metavar="FILE",
         help="its profile: action and topic names, namespace, QoS of its publishers "
@@ -52,6 +58,11 @@ def parser(prog: str = "llmpas robot pybullet") -> argparse.ArgumentParser:
             help=f"{fault} goals of KIND (navigate_to_pose, follow_joint_trajectory, look, "
             "or a skill: grasp, release, move_arm, ...); for tests",
         )
+    p.add_argument(
+        "--hold-accept",
+        metavar="FILE",
+        help="accept no goal before FILE exists (a server slow to accept; for tests)",
+    )
     return p
 
 
@@ -61,8 +72,8 @@ def run(argv: Sequence[str]) -> int:
     args = parser().parse_args(list(argv))
     if importlib.util.find_spec("rclpy") is None:
         raise UsageError('robot: needs the ros extra (pip install -e ".[ros]"): no rclpy')
+    from llmpas.worlds.pybullet_ros2.node import Faults, serve
     from llmpas.worlds.ros2.env import from_environment, missing_rmw
-    from llmpas.worlds.ros2.node import Faults, serve
     from llmpas.worlds.ros2.profile import ProfileError
     from llmpas.worlds.ros2.profile import load as load_profile
 
@@ -87,14 +98,19 @@ def run(argv: Sequence[str]) -> int:
     problem = missing_rmw(env.environ())
     if problem is not None:
         raise UsageError(problem)
-    faults = Faults(frozenset(args.reject), frozenset(args.abort), frozenset(args.stall))
+    hold = Path(args.hold_accept) if args.hold_accept else None
+    faults = Faults(frozenset(args.reject), frozenset(args.abort), frozenset(args.stall), hold)
     ready = Path(args.ready) if args.ready else None
-    serve(args.scenario, args.seed, env, faults, ready, profile)
+    truth = Path(args.truth) if args.truth else None
+    if truth is not None and not truth.parent.is_dir():
+        raise UsageError(f"--truth {truth}: no folder {truth.parent}")
+    serve(args.scenario, args.seed, env, faults, ready, profile, truth)
     return 0
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """The command outside the CLI (``python -m llmpas.worlds.ros2.node``): errors in one line."""
+    """The command outside the CLI (``python -m llmpas.worlds.pybullet_ros2``): errors in one
+    line."""
     try:
         return run(sys.argv[1:] if argv is None else argv)
     except LlmpasError as e:

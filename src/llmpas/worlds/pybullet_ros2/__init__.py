@@ -1,0 +1,4 @@
+"""The PyBullet Husky + Franka Panda served as a ROS 2 robot (``llmpas robot pybullet``): the
+simulator behind Nav2's, ros2_control's and a detector's standard interfaces (or llmpas's own).
+It is a robot like any other to the client (:mod:`llmpas.worlds.ros2`), which never imports it.
+"""
