@@ -3,10 +3,10 @@
 shipped house site and the robot's ``robot_description``) runs two subtrees and writes what
 happened as JSON. Nothing here times anything: the guards count the ticks.
 
-1. ``drive``: two base goals; the robot holds the first goal's acceptance until ``GATE`` exists,
-   which the guard writes at its ``OPEN_AT``-th check (a server slow to accept), then stalls each
-   goal until it is cancelled; the guard fails at its ``FAIL_AT``-th check of a goal, which
-   cancels the goal on the server.
+1. ``drive``: two base goals; the robot holds the first goal's acceptance at least 2 s and until
+   ``GATE`` exists, which the guard writes at its ``OPEN_AT``-th check (a server slow to accept),
+   then stalls each goal until it is cancelled; the guard fails at its ``FAIL_AT``-th check of
+   an accepted goal, which cancels the goal on the server.
 2. ``fold``: folding the arm, whose trajectory planning is held until the guard's
    ``PLANNED_AT``-th check (a planner that takes long).
 
@@ -57,7 +57,9 @@ def main(domain: int, folder: Path, out: Path, gate: Path) -> None:
             x, y, t = robot.believed
             bases = [BaseConf(x + 0.3, y, t), BaseConf(x, y + 0.3, t)]
             checks: dict[str, int] = {}
+            accepted: dict[str, int] = {}  # checks once the goal was accepted
             at_open: dict[str, int] = {}
+            polls = [robot.polls_accepting]
 
             def still_seen(v: Any, c: Context) -> str | None:
                 key = str(v["base"])
@@ -65,7 +67,10 @@ def main(domain: int, folder: Path, out: Path, gate: Path) -> None:
                 if checks[key] == OPEN_AT and not gate.exists():
                     at_open["polls_accepting"] = robot.polls_accepting
                     gate.write_text("open\n")
-                return "the cube is no longer seen" if checks[key] == FAIL_AT else None
+                pending, polls[0] = robot.polls_accepting != polls[0], robot.polls_accepting
+                if not pending:  # the tick no longer polls for its acceptance
+                    accepted[key] = accepted.get(key, 0) + 1
+                return "the cube is no longer seen" if accepted.get(key) == FAIL_AT else None
 
             seen = Constraint("Seen", still_seen, lambda v: Atom("seen", ("cube",)), ("base",))
             drive = SubAction(
@@ -106,6 +111,7 @@ def main(domain: int, folder: Path, out: Path, gate: Path) -> None:
                 "status": ep.status.value,
                 "ticks": ep.ticks,
                 "checks": list(checks.values()),
+                "checks_accepted": list(accepted.values()),
                 "polls_accepting_at_open": at_open.get("polls_accepting", -1),
                 "goals": drives,
                 "cancels": cancels,

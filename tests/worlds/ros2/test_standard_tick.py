@@ -1,9 +1,10 @@
 """The STANDARD client's tick never waits, over a real ROS 2 graph (loopback only: a random
 domain, discovery on localhost, ROS_LOG_DIR under the test's folder). Counts, never times:
 
-- the tree ticks while a server is slow to accept a goal (the robot holds acceptance until the
-  client's guard has been checked OPEN_AT times) and while a trajectory is planned (the planner
-  held until the guard's PLANNED_AT-th check): a tick that waited would never get there;
+- the tree ticks while a server is slow to accept a goal (the robot holds acceptance at least
+  2 s and until the client's guard has been checked OPEN_AT times) and while a trajectory is
+  planned (the planner held until the guard's PLANNED_AT-th check): a tick that waited would
+  never get there;
 - a guard's failure cancels the goal on the server (its log says so);
 - the robot killed mid-grasp ends ``llmpas run --site`` with one line naming the gripper's
   server and ROS_DOMAIN_ID, exit 1, and loop.json keeps every round finished before.
@@ -33,8 +34,9 @@ def test_the_standard_client_ticks_while_a_goal_is_accepted_and_a_trajectory_pla
     domain = random_domain()
     gate = tmp_path / "accept-gate"
     robot = start_robot(
-        domain, "--standard", "--hold-accept", str(gate), "--stall", "navigate_to_pose"
-    )
+        domain, "--standard", "--hold-accept", str(gate), "--accept-after", "2",
+        "--stall", "navigate_to_pose",
+    )  # fmt: skip
     out = tmp_path / "tick.json"
     client = subprocess.run(
         [sys.executable, "-m", "tests.worlds.ros2.standard_tick_client", str(domain),
@@ -47,8 +49,12 @@ def test_the_standard_client_ticks_while_a_goal_is_accepted_and_a_trajectory_pla
     # the first goal waited for acceptance while the tree ticked (and polled it) OPEN_AT times
     assert report["polls_accepting_at_open"] >= OPEN_AT - 2 >= 10
     assert "holding a navigate_to_pose goal's acceptance" in robot.text()
+    # the server took at least 2 s to accept it (and no fewer than OPEN_AT checks)
+    held = [line for line in robot.text().splitlines() if "accepting the held" in line]
+    assert held and float(held[0].rsplit("after ", 1)[1].split()[0]) >= 2.0, robot.text()[-3000:]
     # both goals ran until the guard failed at its FAIL_AT-th check, which cancelled them
-    assert report["checks"] == [FAIL_AT, FAIL_AT] and report["goals"] == 2
+    assert report["checks_accepted"] == [FAIL_AT, FAIL_AT] and report["goals"] == 2
+    assert report["checks"][0] >= FAIL_AT + OPEN_AT - 2  # the first also ticked while held
     assert report["status"] == "anomaly"
     statuses = [tuple(e[:2]) for e in report["events"]]
     assert statuses.count(("move_base", "cancelled")) == 2

@@ -63,6 +63,13 @@ def parser(prog: str = "llmpas robot pybullet") -> argparse.ArgumentParser:
         metavar="FILE",
         help="accept no goal before FILE exists (a server slow to accept; for tests)",
     )
+    p.add_argument(
+        "--accept-after",
+        type=float,
+        default=0.0,
+        metavar="SECONDS",
+        help="with --hold-accept: hold a goal's acceptance at least SECONDS too (for tests)",
+    )
     return p
 
 
@@ -99,7 +106,12 @@ def run(argv: Sequence[str]) -> int:
     if problem is not None:
         raise UsageError(problem)
     hold = Path(args.hold_accept) if args.hold_accept else None
-    faults = Faults(frozenset(args.reject), frozenset(args.abort), frozenset(args.stall), hold)
+    if not (0.0 <= args.accept_after <= 60.0):
+        raise UsageError(f"--accept-after {args.accept_after}: give 0 to 60 seconds")
+    faults = Faults(
+        frozenset(args.reject), frozenset(args.abort), frozenset(args.stall), hold,
+        args.accept_after,
+    )  # fmt: skip
     ready = Path(args.ready) if args.ready else None
     truth = Path(args.truth) if args.truth else None
     if truth is not None and not truth.parent.is_dir():

@@ -67,6 +67,7 @@ class Faults:
     abort: frozenset[str] = frozenset()
     stall: frozenset[str] = frozenset()
     hold_accept: Path | None = None  # accept no goal before this file exists (a slow server)
+    accept_after: float = 0.0  # and, when held, not before these seconds have passed
 
 
 def build_world(scenario: PyBulletScenario, seed: int, client: int) -> PyBulletWorld:
@@ -230,10 +231,12 @@ class RobotNode:
         gate = self.faults.hold_accept
         if gate is not None and not gate.exists():
             log.warning("holding a %s goal's acceptance until %s exists (fault)", kind, gate)
-            end = time.monotonic() + 120.0
-            while not gate.exists() and time.monotonic() < end:
+            start = time.monotonic()
+            earliest, end = start + self.faults.accept_after, start + 120.0
+            while (not gate.exists() or time.monotonic() < earliest) and time.monotonic() < end:
                 time.sleep(0.01)
-            log.warning("accepting the held %s goal", kind)
+            held = time.monotonic() - start
+            log.warning("accepting the held %s goal after %.1f s", kind, held)
         return self._accept.ACCEPT
 
     def _hold(self, handle: Any, kind: str) -> bool:
