@@ -38,9 +38,10 @@ SUITE_B_DIR = Path(__file__).with_name("household-b")
 other words; to be frozen by a commit of its own before any model runs on it (``--suite`` of
 ``bench prompting``)."""
 
-SUITE_B_DIGEST = ""
-""":func:`suite_digest` of :data:`SUITE_B_DIR` as frozen (a test checks it); "" while it is not
-frozen yet (validation pending: every ``l_gt`` is the placeholder 99)."""
+SUITE_B_DIGEST = "2141531e88cf8c9a842f95ab1646a6a10ab1b03466e04e3944f01ca62bfbe973"
+""":func:`suite_digest` of :data:`SUITE_B_DIR` as frozen (a test checks it), after ``llmpas bench
+validate-data`` passed on it (docs/results/household-b-validate.md) and before any model ran on
+it; a change needs a new suite and a new digest, never an edit."""
 
 
 HALVES = ("development", "rest")
