@@ -70,12 +70,15 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
     assert model is not None
     port = _free_port()
     log = tmp_path_factory.mktemp("server") / "server.log"
-    argv = [sys.executable, "-m", "llama_cpp.server", "--model", str(model)]
+    # llama_cpp.server as llmpas's worker builds its model (extra buffer types off: AMX CPUs)
+    argv = [sys.executable, "-m", "tests.llama_server", "--model", str(model)]
     argv += ["--host", "127.0.0.1", "--port", str(port), "--n_ctx", str(N_CTX)]
     argv += ["--n_threads", "1", "--n_threads_batch", "1", "--verbose", "False"]
     env = {**os.environ, "NO_PROXY": "127.0.0.1", "no_proxy": "127.0.0.1"}
     with log.open("wb") as out:
-        proc = subprocess.Popen(argv, stdout=out, stderr=subprocess.STDOUT, env=env)
+        proc = subprocess.Popen(
+            argv, stdout=out, stderr=subprocess.STDOUT, env=env, cwd=Path(__file__).parents[2]
+        )
     url = f"http://127.0.0.1:{port}/v1"
     try:
         deadline = time.monotonic() + START_GUARD
