@@ -28,7 +28,7 @@ from llmpas.worlds.kitchen import load_domain
 from llmpas.worlds.kitchen.session import PLANNER, KitchenSearch, KitchenSession
 from llmpas.worlds.pybullet.camera import CameraConfig
 from llmpas.worlds.pybullet.decomposition import ExplorationConfig, build_specs, table_of
-from llmpas.worlds.pybullet.problem import make_problem
+from llmpas.worlds.pybullet.problem import believe_base, make_problem
 from llmpas.worlds.pybullet.reasoning import environment, prompt_tables, vocabulary
 from llmpas.worlds.pybullet.run import (
     PyBulletScenario,
@@ -41,7 +41,7 @@ from llmpas.worlds.pybullet.run import (
 )
 from llmpas.worlds.pybullet.scene import Scene, SceneConfig, open_client
 from llmpas.worlds.pybullet.streams import Geometry
-from llmpas.worlds.pybullet.values import BaseConf, ObjectPose
+from llmpas.worlds.pybullet.values import ObjectPose
 from llmpas.worlds.pybullet.view import scene_view
 from llmpas.worlds.pybullet.world import PyBulletWorld
 
@@ -101,14 +101,7 @@ class PyBulletSession(KitchenSession):
 
     def sync_base(self) -> None:
         """Believe the base is where odometry says (after a failed subtree drove around)."""
-        here = self.world.base_conf()
-        old = self.belief.matching("atbconf")
-        current = self.belief.values.get(old[0].args[0]) if old else None
-        if isinstance(current, BaseConf) and current.distance(here) < 1e-6:
-            return
-        self.belief.facts -= set(old)
-        q = self.belief.name("q", here)
-        self.belief.facts |= {Atom("bconf", (q,)), Atom("atbconf", (q,))}
+        believe_base(self.belief, self.world.base_conf())
 
     def problem(self, goal: Formula | str, index: int) -> Problem:
         self.sync_base()

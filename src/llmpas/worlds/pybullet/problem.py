@@ -54,6 +54,18 @@ def believed_base(belief: Belief) -> BaseConf | None:
     return None
 
 
+def believe_base(belief: Belief, here: BaseConf) -> None:
+    """Believe the base is at ``here`` (where odometry or TF says, after a failed subtree drove
+    around): the believed base configuration replaced, unless it is already there."""
+    old = belief.matching("atbconf")
+    current = belief.values.get(old[0].args[0]) if old else None
+    if isinstance(current, BaseConf) and current.distance(here) < 1e-6:
+        return
+    belief.facts -= set(old)
+    q = belief.name("q", here)
+    belief.facts |= {Atom("bconf", (q,)), Atom("atbconf", (q,))}
+
+
 def initial_belief(
     config: SceneConfig, poses: Mapping[str, ObjectPose | None], base: BaseConf
 ) -> Belief:

@@ -31,7 +31,12 @@ from llmpas.worlds.kitchen import load_domain
 from llmpas.worlds.kitchen.session import PLANNER, KitchenSearch, KitchenSession
 from llmpas.worlds.pybullet.decomposition import build_specs, table_of
 from llmpas.worlds.pybullet.facts import true_facts
-from llmpas.worlds.pybullet.problem import initial_belief, make_problem, static_facts
+from llmpas.worlds.pybullet.problem import (
+    believe_base,
+    initial_belief,
+    make_problem,
+    static_facts,
+)
 from llmpas.worlds.pybullet.reasoning import environment, prompt_tables, vocabulary
 from llmpas.worlds.pybullet.scene import TABLE_TOP, Scene, SceneConfig
 from llmpas.worlds.pybullet.streams import Geometry
@@ -233,14 +238,7 @@ class SiteSession(Recording, KitchenSession):
 
     def sync_base(self) -> None:
         """Believe the base is where TF says (after a failed subtree drove around)."""
-        here = self.robot.base_conf()
-        old = self.belief.matching("atbconf")
-        current = self.belief.values.get(old[0].args[0]) if old else None
-        if isinstance(current, BaseConf) and current.distance(here) < 1e-6:
-            return
-        self.belief.facts -= set(old)
-        q = self.belief.name("q", here)
-        self.belief.facts |= {Atom("bconf", (q,)), Atom("atbconf", (q,))}
+        believe_base(self.belief, self.robot.base_conf())
 
     def problem(self, goal: Formula | str, index: int) -> Problem:
         self.sync_base()
