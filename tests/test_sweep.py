@@ -77,3 +77,21 @@ def test_the_budget_bounds_a_sweep_and_no_place_is_searched_twice() -> None:
     searched = looks(result)
     assert searched == ["drawer1", "drawer2", "drawer3", "drawer4", "fridge", "microwave"]
     assert "table2_right" not in searched  # the first look's place, searched in vain
+
+
+def test_a_sweep_stops_by_its_counts_never_by_a_clock() -> None:
+    """Issue #42: the budget is counted (places searched, actions planned for them), so the
+    same sweep stops at the same place on any machine; there is no clock to give it."""
+    from llmpas.language.logic import Atom
+    from llmpas.system.sweep import Sweep, SweepBudget
+
+    looks = [Atom("scanned", (p,)) for p in ("drawer1", "drawer2", "fridge")]
+    by_actions = Sweep("mug", list(looks), SweepBudget(places=12, actions=5))
+    by_actions.take(looks[0], 3)
+    assert by_actions.over() == ""
+    by_actions.take(looks[1], 3)
+    assert by_actions.over() == "the budget's 5 actions are planned"
+    by_places = Sweep("mug", list(looks), SweepBudget(places=1, actions=100))
+    by_places.take(looks[0], 2)
+    assert by_places.over() == "the budget's 1 places are searched"
+    assert "seconds" not in SweepBudget.__dataclass_fields__
