@@ -9,7 +9,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from llmpas.experiments.worlds import LoopConfig, oracle_for, run_loop
+from llmpas.catalog import oracle_for
+from llmpas.experiments.worlds import LoopConfig, run_loop
 from llmpas.language.logic import Atom
 from llmpas.reasoning.backends.replay import ReplayBackend
 from llmpas.reasoning.choose import Ranked

@@ -183,10 +183,10 @@ def test_robot_command_is_the_worlds_own_with_one_parser(
 ) -> None:
     """``llmpas robot pybullet``: the ROS 2 world's registered command parses its options (the
     command line defines none of them); an unknown robot is one line naming the known ones."""
-    from llmpas.experiments.worlds import ROBOTS
+    from llmpas.catalog import robots
     from llmpas.worlds.pybullet_ros2 import command
 
-    assert ROBOTS["pybullet"] == "llmpas.worlds.pybullet_ros2.command:run"
+    assert robots()["pybullet"].command == "llmpas.worlds.pybullet_ros2.command:run"
     with pytest.raises(SystemExit) as done:
         main(["robot", "pybullet", "--help"])
     assert done.value.code == 0

@@ -11,8 +11,9 @@ from pathlib import Path
 import pytest
 
 from llmpas.experiments.suite import Verdict, judge, load_task
-from llmpas.experiments.worlds import ORACLE, LoopConfig, run_loop
+from llmpas.experiments.worlds import LoopConfig, run_loop
 from llmpas.reasoning.methods import Proposal
+from llmpas.reasoning.truth_oracle import ORACLE
 from llmpas.system import LoopResult, LoopSettings, close_loop
 from llmpas.worlds.api import RunOptions
 from llmpas.worlds.household.plugin import WORLD

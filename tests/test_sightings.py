@@ -10,9 +10,9 @@ from dataclasses import replace
 from pathlib import Path
 
 from llmpas.execution.anomaly import AnomalyReport
-from llmpas.experiments.replan import Replan
 from llmpas.experiments.worlds import LoopConfig, run_loop
 from llmpas.reasoning.llm import Request, Response
+from llmpas.reasoning.replan import Replan
 from llmpas.system import LoopResult
 from llmpas.worlds.api import RunOptions
 from llmpas.worlds.pybullet.run import scenarios

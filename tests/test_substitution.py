@@ -8,9 +8,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from llmpas.experiments.worlds import ORACLE, run_loop
+from llmpas.experiments.worlds import run_loop
 from llmpas.language.domain import parse_domain
 from llmpas.language.logic import And, Atom
+from llmpas.reasoning.truth_oracle import ORACLE
 from llmpas.system import loop_markdown
 from tests.test_system import clean_blackboard  # noqa: F401 (autouse)
 

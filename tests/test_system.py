@@ -11,9 +11,10 @@ from pathlib import Path
 import py_trees
 import pytest
 
-from llmpas.experiments.worlds import ORACLE, LoopConfig, run_loop  # ORACLE: the upper bound
+from llmpas.experiments.worlds import LoopConfig, run_loop
 from llmpas.reasoning.llm import Request, Response
 from llmpas.reasoning.methods import MethodConfig
+from llmpas.reasoning.truth_oracle import ORACLE  # the upper bound
 
 
 @pytest.fixture(autouse=True)

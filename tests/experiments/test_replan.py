@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import pytest
 
-from llmpas.experiments.replan import FIRST_LOOK, LABEL, REPLAN, Replan, task_literals
 from llmpas.experiments.suite import SUITE_DIR, Verdict, judge, load_task
 from llmpas.experiments.worlds import LoopConfig
 from llmpas.language.logic import Atom, Not
@@ -14,6 +13,7 @@ from llmpas.reasoning.goals import parse_goals
 from llmpas.reasoning.llm import Message, Request
 from llmpas.reasoning.methods import Situation
 from llmpas.reasoning.program import parse_program
+from llmpas.reasoning.replan import FIRST_LOOK, LABEL, REPLAN, Replan, task_literals
 from llmpas.worlds.household.plugin import household_for
 from llmpas.worlds.household.reasoning import PROGRAM_CALLS, vocabulary
 

@@ -13,7 +13,6 @@ from typing import Any
 import pytest
 
 from llmpas.cli import main
-from llmpas.experiments.oracles.household import oracle as oracle_factory
 from llmpas.experiments.suite import (
     MINIMUM_COUNTS,
     NO_VERDICT,
@@ -41,6 +40,7 @@ from llmpas.planning import PlannerConfig
 from llmpas.planning.result import PlanStatus
 from llmpas.reasoning.llm import Request, Response
 from llmpas.worlds.api import RunOptions
+from llmpas.worlds.household.household_oracle import oracle as oracle_factory
 from llmpas.worlds.household.sim import HouseholdWorld
 
 ALL = [p.stem for p in sorted(SUITE_DIR.glob("*.toml"))]

@@ -6,8 +6,6 @@ from __future__ import annotations
 
 import pytest
 
-from llmpas.experiments.oracles.household import oracle
-from llmpas.experiments.replan import Replan
 from llmpas.experiments.suite import (
     SUITE_DIR,
     Category,
@@ -21,6 +19,8 @@ from llmpas.experiments.suite import (
 from llmpas.experiments.worlds import LoopConfig
 from llmpas.language.logic import Atom
 from llmpas.reasoning.llm import Request, Response
+from llmpas.reasoning.replan import Replan
+from llmpas.worlds.household.household_oracle import oracle
 from llmpas.worlds.household.state import HIDDEN
 
 CAUSES = {

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
+from llmpas.catalog import llm_for
 from llmpas.experiments.jobs import add_llm_argument
-from llmpas.experiments.worlds import llm_for
 from llmpas.reasoning.backends.registry import (
     BACKENDS,
     KINDS,

@@ -25,8 +25,7 @@ from rich.console import Console
 
 from llmpas.experiments.jobs import ExecutorSpec
 from llmpas.reasoning.backends.registry import BACKENDS, choices
-
-ORACLE = "oracle"
+from llmpas.reasoning.truth_oracle import ORACLE
 
 #: The benchmarks, in the order ``llmpas bench all`` runs them: data check, planner, executor,
 #: reasoner, then what ``bench all`` leaves out.

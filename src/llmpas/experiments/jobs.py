@@ -44,6 +44,9 @@ from rich.progress import (
 )
 
 from llmpas.files import atomic_write
+from llmpas.reasoning.backends.registry import add_llm_argument
+from llmpas.reasoning.replan import REPLAN
+from llmpas.reasoning.truth_oracle import ORACLE
 
 log = logging.getLogger(__name__)
 
@@ -80,7 +83,7 @@ def llm_resources(spec: str) -> dict[str, float]:
     """The resources of a job using the ``--llm`` backend ``spec``: one :data:`LLM_RESOURCE`
     when it talks to a model (a local model or an endpoint), none for the oracle or a replay."""
     kind = spec.partition(":")[0]
-    return {} if kind in ("oracle", "replan", "replay") else {LLM_RESOURCE: 1.0}
+    return {} if kind in (ORACLE, REPLAN, "replay") else {LLM_RESOURCE: 1.0}
 
 
 @cache
@@ -90,22 +93,6 @@ def backend(spec: str, record: str | None = None) -> Any:
     from llmpas.reasoning.backends.registry import make_backend
 
     return make_backend(spec, record)
-
-
-def add_llm_argument(
-    p: argparse.ArgumentParser, oracle: str = "oracle", replan: bool = False
-) -> None:
-    """The ``--llm`` option every experiment takes, its choices from the backend registry
-    (``oracle`` says what the oracle is there; ``replan``: the no-LLM baseline is offered too)."""
-    from llmpas.reasoning.backends.registry import BACKENDS, choices
-
-    kinds = ["oracle", *(["replan"] if replan else []), *BACKENDS]
-    shown = {"replan": "replan (no LLM: the task restated)", "oracle": oracle}
-    p.add_argument(
-        "--llm",
-        default="llama-cpp",
-        help=f"{choices(kinds, shown)} (default: the offline model)",
-    )
 
 
 # ------------------------------------------------------------------------------ executors

@@ -63,7 +63,7 @@ class _Timed:
 def _once(
     scenario: str, llm: str, folder: Path, sink: bool, period: float | None
 ) -> dict[str, Any]:
-    from llmpas.experiments.worlds import llm_for, load_world, world_of
+    from llmpas.catalog import llm_for, load_world, world_of
     from llmpas.reporting.live import SCENE_PERIOD, FoxgloveSink
     from llmpas.system import run
 

@@ -19,7 +19,7 @@ an upper bound, never a default) runs one sample per task (it is deterministic).
 
 What the LLM contributes, beside SR and ASPL:
 
-- the ``replan`` row (:mod:`llmpas.experiments.replan`; a baseline, not an oracle): a backend
+- the ``replan`` row (:mod:`llmpas.reasoning.replan`; a baseline, not an oracle): a backend
   that answers every goal request with the task goal restated, in the same loop with the same
   budget (the oracle's path: ``flp``, one sample per task). Each method's **lift** is its SR minus
   replan's, per anomaly type and overall: what its reasoning adds to replanning the task from the
@@ -49,6 +49,7 @@ from typing import Any
 
 from rich.console import Console
 
+from llmpas.catalog import oracle_for
 from llmpas.experiments.benchmarks import AllConfig, Bench
 from llmpas.experiments.jobs import (
     ExecutorSpec,
@@ -62,7 +63,6 @@ from llmpas.experiments.jobs import (
     llm_resources,
     run_jobs,
 )
-from llmpas.experiments.replan import REPLAN, Replan
 from llmpas.experiments.suite import (
     HALVES,
     SUITE_DIR,
@@ -74,7 +74,7 @@ from llmpas.experiments.suite import (
     load_task,
     parse_task,
 )
-from llmpas.experiments.worlds import LoopConfig, oracle_for
+from llmpas.experiments.worlds import LoopConfig
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning import PlannerConfig
 from llmpas.reasoning.assists import PROTOCOLS, Assists, ablation, parse_assists
@@ -90,12 +90,13 @@ from llmpas.reasoning.methods import (
     controls,
     method_names,
 )
+from llmpas.reasoning.replan import REPLAN, Replan
+from llmpas.reasoning.truth_oracle import ORACLE
 from llmpas.system import LLMFor, LoopResult, SweepBudget
 from llmpas.worlds.api import RunOptions
 
 log = logging.getLogger(__name__)
 
-ORACLE = "oracle"
 UPPER_BOUND = "upper bound"
 BASELINE = "no reasoning"
 REPLAN_VERSION = "replan-2"  # part of the replan row's cache keys: bump when its answers change

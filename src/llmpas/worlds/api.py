@@ -16,7 +16,14 @@ A **world** (:class:`World`) is a plug-in found by name (``household``, ``pybull
 
 :mod:`llmpas.system` plans, executes and asks the LLM; a world never does. Nothing here reads a
 world's true state except :meth:`Session.achieved` (a judge, afterwards) and a world's oracle,
-which lives in :mod:`llmpas.experiments`.
+which lives in the world's folder beside it.
+
+**One folder.** A shipped world is a package under :mod:`llmpas.worlds` whose ``__init__.py``
+registers it: a :class:`WorldEntry` named ``WORLD_ENTRY`` (its name, its world and oracle as
+``module:ATTR``, where it stands in listings, its scenarios for the command line's help). A
+package that serves a simulated robot (``llmpas robot NAME``) registers a :class:`RobotEntry`
+named ``ROBOT_ENTRY``. The registry (:mod:`llmpas.catalog`) finds them; nothing else lists them.
+
 
 **One truth judge.** A session whose world has a true state says so as facts
 (:class:`TrueFacts`: ``true_facts()``, in the domain's predicates); the task is then judged on
@@ -44,6 +51,45 @@ from llmpas.language.sexpr import SExpr, SList, Sym, parse_all
 from llmpas.planning import PlannerConfig
 from llmpas.planning.result import Plan
 from llmpas.reasoning.tables import PromptTables, Vocabulary
+
+
+@dataclass(frozen=True)
+class WorldEntry:
+    """A shipped world's registration (``WORLD_ENTRY`` in its package's ``__init__.py``): light,
+    names only, so that the registry reads it without importing the world (nor PyBullet).
+
+    ``world``: ``module:ATTR`` of its :class:`World`; ``oracle``: ``module:ATTR`` of its labelled
+    oracle, a function of a session (empty: ``--llm oracle`` is unknown there); ``rank``: where it
+    stands when worlds are listed (help, errors), lowest first; ``help``: its scenarios as the
+    command line's help says them (empty: not named in the help); ``files``: ``module:ATTR`` of
+    a function of a scenario name or ``.toml`` path to that file, for the world that reads
+    scenario files (one at most: a ``.toml`` file is its scenario); ``sites``: it reads a site
+    file (``--site``)."""
+
+    name: str
+    world: str
+    oracle: str = ""
+    rank: int = 100
+    help: str = ""
+    files: str = ""
+    sites: bool = False
+
+    def __post_init__(self) -> None:
+        if not self.name or ":" in self.name:
+            raise ValueError(f"a world's name is a word without ':', got {self.name!r}")
+        for spec in (self.world, self.oracle or "m:a", self.files or "m:a"):
+            module, _, attr = spec.partition(":")
+            if not module or not attr:
+                raise ValueError(f"world {self.name}: expected module:ATTR, got {spec!r}")
+
+
+@dataclass(frozen=True)
+class RobotEntry:
+    """A simulated robot's registration (``ROBOT_ENTRY`` in its package's ``__init__.py``):
+    ``llmpas robot NAME ARGS`` runs ``command`` (``module:ATTR`` of ``run(argv) -> int``)."""
+
+    name: str
+    command: str
 
 
 @dataclass(frozen=True)
@@ -304,6 +350,7 @@ class World(Protocol):
 
 __all__ = [
     "Pose3",
+    "RobotEntry",
     "RunOptions",
     "SceneGeometry",
     "SceneView",
@@ -312,5 +359,6 @@ __all__ = [
     "Shape",
     "TrueFacts",
     "World",
+    "WorldEntry",
     "holds",
 ]

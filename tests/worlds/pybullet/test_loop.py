@@ -14,10 +14,11 @@ pytest.importorskip("pybullet")
 pytest.importorskip("ompl")
 
 from llmpas.cli import main
-from llmpas.experiments.worlds import ORACLE, LoopConfig, run_loop
+from llmpas.experiments.worlds import LoopConfig, run_loop
 from llmpas.language.logic import Atom
 from llmpas.reasoning.llm import Request, Response
 from llmpas.reasoning.methods import MethodConfig
+from llmpas.reasoning.truth_oracle import ORACLE
 from llmpas.worlds.api import RunOptions
 
 QUIET = RunOptions(snapshots=False)

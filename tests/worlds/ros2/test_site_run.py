@@ -73,7 +73,7 @@ def test_a_site_run_is_done_as_perceived_and_the_truth_agrees(
 
 CLIENT = """
 import sys
-from llmpas.experiments.worlds import load_world
+from llmpas.catalog import load_world
 import llmpas.cli
 world = load_world("ros2")
 import llmpas.worlds.ros2.site_session

@@ -18,7 +18,6 @@ pytest.importorskip("pybullet")
 pytest.importorskip("ompl")
 
 from llmpas.execution.executor import Episode, ExecStatus, execute
-from llmpas.experiments.oracles.tabletop import oracle
 from llmpas.language.logic import Atom, Formula, Not
 from llmpas.language.problem import parse_formula
 from llmpas.planning import solve
@@ -27,6 +26,7 @@ from llmpas.reasoning.prompts import situation
 from llmpas.reasoning.tables import PromptTables
 from llmpas.worlds.api import RunOptions, SearchModel, Session, World
 from llmpas.worlds.tabletop import WORLD
+from llmpas.worlds.tabletop.tabletop_oracle import oracle
 
 PACKAGE = Path(__file__).parents[3] / "src" / "llmpas" / "worlds" / "tabletop"
 

@@ -43,7 +43,7 @@ such, never as "unreachable" (:data:`NO_VERDICT`).
 would (the task's goal vocabulary) and that, proposed as the first answer at the anomaly (as the
 oracle's goals are), the loop accepts it unchanged and plans it from the anomaly state (a run
 that then does not resolve the task is a note, not an error). A task marked ``measures_llm``
-must be failed by the ``replan`` baseline (:mod:`llmpas.experiments.replan`) and by an
+must be failed by the ``replan`` baseline (:mod:`llmpas.reasoning.replan`) and by an
 irrelevant goal (:func:`irrelevant_goal`): its anomaly's cause is something the robot must be
 told or infer, not a fact the planner already has.
 

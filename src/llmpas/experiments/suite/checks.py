@@ -11,8 +11,6 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from llmpas.experiments.effective import as_search, lost_object
-from llmpas.experiments.oracles.household import oracle as household_oracle
-from llmpas.experiments.replan import Replan
 from llmpas.experiments.suite.judge import (
     first_anomaly,
     judge,
@@ -35,8 +33,10 @@ from llmpas.planning import PlannerConfig
 from llmpas.planning.config import Algorithm
 from llmpas.planning.result import PlanStatus
 from llmpas.reasoning.llm import LLM, Request, Response
+from llmpas.reasoning.replan import Replan
 from llmpas.system import LoopResult, LoopSettings, close_loop
 from llmpas.worlds.household.decomposition import ExplorationConfig
+from llmpas.worlds.household.household_oracle import oracle as household_oracle
 from llmpas.worlds.household.plugin import HouseholdSession
 from llmpas.worlds.household.sim import HouseholdWorld
 from llmpas.worlds.household.state import PROCESS_EFFECTS

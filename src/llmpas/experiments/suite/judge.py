@@ -15,7 +15,6 @@ from llmpas.experiments.effective import (
     is_effective,
     lost_object,
 )
-from llmpas.experiments.replan import task_literals
 from llmpas.experiments.suite.tasks import Category, SuiteTask
 from llmpas.experiments.suite.truth import holds_in_truth
 from llmpas.experiments.worlds import LoopConfig
@@ -23,6 +22,7 @@ from llmpas.language.logic import Atom, Not
 from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal
 from llmpas.reasoning.llm import LLM
 from llmpas.reasoning.methods import Proposal, Situation, answer_reader
+from llmpas.reasoning.replan import task_literals
 from llmpas.system import LLMFor, LoopResult, run
 from llmpas.worlds.household.plugin import WORLD, HouseholdSession, household_for
 from llmpas.worlds.household.reasoning import PROGRAM_CALLS, vocabulary

@@ -4,9 +4,10 @@
 it is written, one line of help and its maker. It is the single source of the choices the
 command line offers (:func:`choices`) and of the table in ``docs/llm-part.md``
 (:func:`markdown_table`). The registry is lazy: a maker imports its backend's module only when
-a spec of its kind is built. ``oracle`` (a labelled oracle, which reads the world's truth) and
-``replan`` (no LLM: the task restated) have no maker here: the experiments supply them
-(:mod:`llmpas.experiments.worlds`), since reasoning knows no world.
+a spec of its kind is built. ``oracle`` (a labelled oracle, which reads the world's truth:
+:mod:`llmpas.reasoning.truth_oracle`) and ``replan`` (no LLM: the task restated:
+:mod:`llmpas.reasoning.replan`), the recovery methods that ask no model, have no maker here: the
+product's registry supplies them (:func:`llmpas.catalog.llm_for`), since reasoning knows no world.
 
 ``record``: a cassette folder the answers are recorded into (replayed when present). Bad specs
 raise :class:`ValueError` naming the spec; nothing is loaded before the spec is known good.
@@ -14,6 +15,7 @@ raise :class:`ValueError` naming the spec; nothing is loaded before the spec is 
 
 from __future__ import annotations
 
+import argparse
 import math
 import os
 from collections.abc import Callable, Iterable, Mapping
@@ -23,6 +25,8 @@ from types import MappingProxyType
 from typing import Any
 
 from llmpas.reasoning.llm import LLM
+from llmpas.reasoning.replan import REPLAN
+from llmpas.reasoning.truth_oracle import ORACLE
 
 Maker = Callable[[str, str | None], Any]  # (argument after the colon, record folder) -> backend
 
@@ -102,11 +106,11 @@ KINDS: Mapping[str, BackendKind] = MappingProxyType(
         k.name: k
         for k in (
             BackendKind(
-                "oracle",
-                "oracle",
+                ORACLE,
+                ORACLE,
                 "the labelled oracle: reads the truth (an upper bound, never a default)",
             ),
-            BackendKind("replan", "replan", "no LLM: the task restated (the baseline)"),
+            BackendKind(REPLAN, REPLAN, "no LLM: the task restated (the baseline)"),
             BackendKind("replay", "replay:DIR", "answers recorded in a cassette folder", _replay),
             BackendKind(
                 "openai",
@@ -141,7 +145,7 @@ def choices(names: Iterable[str] | None = None, shown: Mapping[str, str] = {}) -
     return " | ".join(shown.get(n, k.syntax) for n, k in KINDS.items() if n in wanted)
 
 
-SPECS = choices(("oracle", *BACKENDS))
+SPECS = choices((ORACLE, *BACKENDS))
 """What a spec may be where the oracle is offered (no replan)."""
 
 
@@ -159,12 +163,27 @@ def make_backend(spec: str, record: str | None = None, extra: Mapping[str, Maker
     kind, _, arg = spec.partition(":")
     makers = {**BACKENDS, **extra}
     if kind not in makers:
-        offered = [n for n in KINDS if n in makers or n == "oracle"]
+        offered = [n for n in KINDS if n in makers or n == ORACLE]
         raise ValueError(f"{spec!r}: expected {choices(offered)}")
     try:
         return makers[kind](arg, record)
     except ValueError as err:
         raise ValueError(f"{spec}: {err}") from None
+
+
+def add_llm_argument(
+    p: argparse.ArgumentParser, oracle: str = ORACLE, replan: bool = False
+) -> None:
+    """The ``--llm`` option of ``llmpas run`` and of every experiment, its choices from the
+    registry (``oracle`` says what the oracle is there; ``replan``: the no-LLM baseline is
+    offered too)."""
+    kinds = [ORACLE, *([REPLAN] if replan else []), *BACKENDS]
+    shown = {REPLAN: "replan (no LLM: the task restated)", ORACLE: oracle}
+    p.add_argument(
+        "--llm",
+        default="llama-cpp",
+        help=f"{choices(kinds, shown)} (default: the offline model)",
+    )
 
 
 __all__ = [
@@ -173,6 +192,7 @@ __all__ = [
     "SPECS",
     "BackendKind",
     "Maker",
+    "add_llm_argument",
     "choices",
     "make_backend",
     "markdown_table",

@@ -13,3 +13,14 @@
 
 Nothing connects to PyBullet at import time.
 """
+
+from llmpas.worlds.api import WorldEntry
+
+WORLD_ENTRY = WorldEntry(
+    "pybullet",
+    "llmpas.worlds.pybullet.plugin:WORLD",
+    oracle="llmpas.worlds.pybullet.pybullet_oracle:oracle",
+    rank=1,
+    help="object-loss, action-blocking (PyBullet Husky + Panda)",
+)
+

@@ -1,5 +1,8 @@
-"""Labelled oracles: goals computed from a world's TRUE state, used only as an upper bound (never
-as a default). Each implements the LLM protocol and reads the anomaly from the request
+"""``oracle``: the labelled oracle, a recovery method that asks no model (like ``replan``,
+:mod:`llmpas.reasoning.replan`): goals computed from a world's TRUE state, used only as an upper
+bound (never as a default). Each world's oracle lives in the world's folder (``oracle(session)``,
+named by its :class:`~llmpas.worlds.api.WorldEntry`) and derives from :class:`TruthOracle`; it
+implements the LLM protocol and reads the anomaly from the request
 (``request.situation.constraint``) like every backend reads it from the prompt."""
 
 from __future__ import annotations
@@ -12,6 +15,8 @@ from llmpas.reasoning.goals import parse_goals
 from llmpas.reasoning.llm import Request, Response, ScoreRequest, Scores
 from llmpas.reasoning.tables import Vocabulary
 
+ORACLE = "oracle"
+"""The oracle's name: its ``--llm`` kind in ``llmpas run`` and its row in ``bench prompting``."""
 FIRST_LOOK = "Look where the truth says."
 _LITERAL = re.compile(r"\(not \([^()]*\)\)|\([^()]*\)")
 
@@ -36,7 +41,7 @@ class TruthOracle:
     answers the intent's first alternative that does not name the failed literal's objects.
     Its failures are its own: the loop calls it ``the oracle`` (:attr:`role`)."""
 
-    name = "oracle"
+    name = ORACLE
     role = "the oracle (an upper bound)"
     vocabulary: Vocabulary | None = None
 
@@ -65,7 +70,7 @@ class TruthOracle:
         for choice in request.choices:
             have = set(_LITERAL.findall(choice))
             out.append((len(have & wanted) - 0.01 * len(have - wanted),))
-        return Scores(tuple(out), model="oracle")
+        return Scores(tuple(out), model=ORACLE)
 
     def legal(self, goals: list[Atom | Not]) -> list[Atom | Not]:
         """The goals the vocabulary accepts (all of them without one)."""
@@ -122,15 +127,16 @@ def _literals(e: object) -> list[Atom | Not]:
 
 
 def answer(goals: list[Atom | Not]) -> Response:
-    return Response(f"(and {' '.join(map(str, goals))})", model="oracle")
+    return Response(f"(and {' '.join(map(str, goals))})", model=ORACLE)
 
 
 def first_look() -> Response:
-    return Response(FIRST_LOOK, model="oracle")
+    return Response(FIRST_LOOK, model=ORACLE)
 
 
 __all__ = [
     "FIRST_LOOK",
+    "ORACLE",
     "TruthOracle",
     "answer",
     "failed_literal",

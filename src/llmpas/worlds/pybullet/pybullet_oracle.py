@@ -3,8 +3,8 @@ simulator's TRUE state."""
 
 from __future__ import annotations
 
-from llmpas.experiments.oracles import TruthOracle
 from llmpas.language.logic import Atom, Not
+from llmpas.reasoning.truth_oracle import TruthOracle
 from llmpas.worlds.pybullet.plugin import PyBulletSession
 from llmpas.worlds.pybullet.run import bottom, over
 from llmpas.worlds.pybullet.scene import RIM_MARGIN, Scene

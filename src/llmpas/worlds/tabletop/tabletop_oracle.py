@@ -4,10 +4,9 @@ the failed literal as data)."""
 
 from __future__ import annotations
 
-from llmpas.experiments.oracles import TruthOracle
 from llmpas.language.logic import Atom, Not
-from llmpas.reasoning.llm import LLM
-from llmpas.worlds.tabletop import TabletopSession
+from llmpas.reasoning.truth_oracle import TruthOracle
+from llmpas.worlds.tabletop.session import TabletopSession
 
 
 class TabletopOracle(TruthOracle):
@@ -37,7 +36,7 @@ class TabletopOracle(TruthOracle):
         return self.session.scene.region_of(*at)
 
 
-def oracle(session: TabletopSession) -> LLM:
+def oracle(session: TabletopSession) -> TabletopOracle:
     return TabletopOracle(session)
 
 

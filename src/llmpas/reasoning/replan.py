@@ -1,4 +1,6 @@
-"""``replan``: the no-reasoning baseline of ``bench prompting`` (a baseline, not an oracle).
+"""``replan``: the no-reasoning baseline, a recovery method that asks no model (like ``oracle``,
+:mod:`llmpas.reasoning.truth_oracle`): ``llmpas run --llm replan`` and the ``replan`` row of
+``bench prompting`` (a baseline, not an oracle).
 
 An LLM backend that answers every goal request with the task goal itself, restated: whatever the
 anomaly, it proposes "do the task again". Run in the same closed loop with the same budget as

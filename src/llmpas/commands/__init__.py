@@ -1,0 +1,1 @@
+"""The ``llmpas`` commands, one module each (:mod:`llmpas.cli` assembles the parser)."""
