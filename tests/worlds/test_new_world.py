@@ -1,0 +1,125 @@
+"""A new shipped world is one folder (docs/worlds.md, "Add a shipped world"): a package under
+``llmpas/worlds/`` whose ``__init__.py`` registers it (``WORLD_ENTRY``), its world and its
+oracle beside it. Built here in a copy of the source tree, with no other file touched, it is
+found by name by the product's registry (:mod:`llmpas.catalog`), named in ``llmpas run``'s
+help, and run by ``llmpas run`` with the two recovery methods that ask no model (``oracle``,
+``replan``); ``llmpas run`` loads nothing of :mod:`llmpas.experiments`.
+
+The world's code is the in-memory library of ``tests/worlds/test_protocol.py`` (books on
+shelves, searched by ``(inspected SHELF)``), so the folder holds only what a world adds to be
+shipped: its registration and its oracle."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+INIT = '''"""The library: an atlas on one of three shelves (a world in one folder)."""
+
+from llmpas.worlds.api import WorldEntry
+
+WORLD_ENTRY = WorldEntry(
+    "library",
+    "llmpas.worlds.library.library_world:WORLD",
+    oracle="llmpas.worlds.library.library_world:oracle",
+    rank=50,
+    help="atlas-on-shelf1..3 (a library in memory)",
+)
+'''
+
+WORLD = '''"""The library world and its labelled oracle (it reads where the atlas truly is)."""
+
+from llmpas.language.logic import Atom, Not
+from llmpas.reasoning.truth_oracle import TruthOracle
+from tests.worlds.test_protocol import Library, LibrarySession
+
+WORLD = Library()
+
+
+class LibraryOracle(TruthOracle):
+    def __init__(self, session: LibrarySession) -> None:
+        self.session = session
+
+    def goals_for(self, atom: Atom, negated: bool) -> list[Atom | Not]:
+        if atom.predicate == "in" and not negated:  # not where believed: look where it is
+            return [Atom("inspected", (self.session.truth[atom.args[0]],))]
+        return []
+
+
+def oracle(session: LibrarySession) -> LibraryOracle:
+    return LibraryOracle(session)
+'''
+
+CHECK = """
+import sys
+from llmpas.cli import main
+code = main(sys.argv[1:])
+loaded = sorted(m for m in sys.modules if m.startswith("llmpas.experiments"))
+print("experiments loaded:", loaded)
+sys.exit(code)
+"""
+
+
+@pytest.fixture(scope="module")
+def tree(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A copy of the source tree with one new folder: ``llmpas/worlds/library/``."""
+    src = tmp_path_factory.mktemp("tree") / "src"
+    shutil.copytree(
+        ROOT / "src" / "llmpas", src / "llmpas", ignore=shutil.ignore_patterns("__pycache__")
+    )
+    folder = src / "llmpas" / "worlds" / "library"
+    folder.mkdir()
+    (folder / "__init__.py").write_text(INIT)
+    (folder / "library_world.py").write_text(WORLD)
+    return src
+
+
+def llmpas(src: Path, *argv: str) -> subprocess.CompletedProcess[str]:
+    """``llmpas ARGV`` on the copied tree (the repository root on the path for ``tests``)."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(src), str(ROOT)]), "COLUMNS": "200"}
+    return subprocess.run(
+        [sys.executable, "-c", CHECK, *argv],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        env=env,
+        cwd=src.parent,
+    )
+
+
+def test_the_folder_is_the_whole_registration(tree: Path) -> None:
+    found = llmpas(tree, "run", "--help")
+    assert found.returncode == 0, found.stderr
+    assert "household, pybullet, tabletop, library, or your own package.module:WORLD" in (
+        " ".join(found.stdout.split())
+    )
+    assert "atlas-on-shelf1..3 (a library in memory)" in " ".join(found.stdout.split())
+    wrong = llmpas(tree, "run", "atlas-on-shelf3", "--world", "nosuch")
+    assert wrong.returncode == 2
+    assert "expected one of household, pybullet, tabletop, ros2, library or" in wrong.stderr
+
+
+def test_llmpas_run_runs_it_with_the_oracle_and_replan(tree: Path, tmp_path: Path) -> None:
+    out = tmp_path / "oracle"
+    run = llmpas(tree, "run", "atlas-on-shelf3", "--world", "library", "--llm", "oracle",
+                 "--out", str(out))
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "task done" in run.stdout and "(inspected shelf3)" in run.stdout
+    assert "experiments loaded: []" in run.stdout  # llmpas run imports nothing of them
+    assert (out / "loop.json").is_file() and (out / "library.json").is_file()
+    replan = llmpas(tree, "run", "atlas-on-shelf3", "--world", "library", "--llm", "replan")
+    assert replan.returncode == 1, replan.stdout + replan.stderr  # the task again: not found
+    assert "not done" in replan.stdout and "experiments loaded: []" in replan.stdout
+
+
+def test_a_shipped_scenario_name_finds_its_world(tree: Path) -> None:
+    run = llmpas(tree, "run", "atlas-on-shelf2", "--llm", "oracle", "--rounds", "2")
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "a library (in memory)" in run.stdout or "task done" in run.stdout
