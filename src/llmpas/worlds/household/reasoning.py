@@ -1,7 +1,7 @@
 """What the reasoner is told about the household: its prompt tables (as data), the goal
 vocabulary and the believed environment. Everything here comes from the robot's belief and the
 domain, never from the simulator's truth (the labelled oracle lives in
-:mod:`llmpas.experiments.oracles.household`).
+:mod:`llmpas.worlds.household.household_oracle`).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """``llmpas robot pybullet SCENARIO``: serve the PyBullet Husky + Panda as a ROS 2 robot.
 
-The ROS 2 world's own command, registered in :data:`llmpas.experiments.worlds.ROBOTS`; the
+The ROS 2 world's own command, registered as ``ROBOT_ENTRY`` in this package's ``__init__``; the
 command line hands it everything after ``llmpas robot pybullet`` and this module's parser is the
 only one (``python -m llmpas.worlds.pybullet_ros2`` uses it too).
 """
