@@ -108,8 +108,9 @@ def test_the_folder_is_the_whole_registration(tree: Path) -> None:
 
 def test_llmpas_run_runs_it_with_the_oracle_and_replan(tree: Path, tmp_path: Path) -> None:
     out = tmp_path / "oracle"
-    run = llmpas(tree, "run", "atlas-on-shelf3", "--world", "library", "--llm", "oracle",
-                 "--out", str(out))
+    run = llmpas(
+        tree, "run", "atlas-on-shelf3", "--world", "library", "--llm", "oracle", "--out", str(out)
+    )
     assert run.returncode == 0, run.stdout + run.stderr
     assert "task done" in run.stdout and "(inspected shelf3)" in run.stdout
     assert "experiments loaded: []" in run.stdout  # llmpas run imports nothing of them

@@ -1,6 +1,8 @@
 """``llmpas run``: the closed loop on a registered world's scenario with an ``--llm`` of the
 product's registry (:mod:`llmpas.catalog`). It imports nothing from :mod:`llmpas.experiments`
-(an import-linter contract)."""
+(an import-linter contract), but one module by name: a household suite task file (a scenario
+with a ``[judge]`` table) is read with the suite's reader, :mod:`llmpas.experiments.suite`,
+when one is run."""
 
 from __future__ import annotations
 

@@ -57,6 +57,7 @@ from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal, parse_goals
 from llmpas.reasoning.grammar import gbnf, json_schema, skill_gbnf
 from llmpas.reasoning.llm import LLM, Message, Request, Response
 from llmpas.reasoning.program import parse_program
+from llmpas.reasoning.replan import REPLAN
 from llmpas.reasoning.tables import Call, Vocabulary
 
 DECODINGS = ("grammar", "schema", "none")
@@ -129,8 +130,8 @@ def controls(name: str) -> tuple[str, ...]:
     (``candidates-shuffled``) and the model without the evidence (``prior``); every other
     method, a control included, against ``replan`` (no reasoning)."""
     if method(name).chooser == "model":
-        return ("candidates-shuffled", "prior", "replan")
-    return ("replan",)
+        return ("candidates-shuffled", "prior", REPLAN)
+    return (REPLAN,)
 
 
 def method(name: str) -> Method:

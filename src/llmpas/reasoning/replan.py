@@ -23,7 +23,6 @@ from collections.abc import Mapping
 from llmpas.language.logic import Atom, Not
 from llmpas.language.sexpr import SList, Sym, parse_all
 from llmpas.reasoning.llm import Request, Response
-from llmpas.reasoning.methods import REGISTRY
 from llmpas.reasoning.tables import Call
 
 REPLAN = "replan"
@@ -68,6 +67,8 @@ class Replan:
         if request.tag == "first-look":
             return Response(FIRST_LOOK, model=REPLAN)
         calls = getattr(request.situation, "calls", None)
+        from llmpas.reasoning.methods import REGISTRY  # methods names this baseline
+
         method = REGISTRY.get(self.method)
         if method is not None and method.program and calls:
             return Response(self.program(calls), model=REPLAN)
@@ -94,6 +95,8 @@ class Replan:
                 if "?" not in args:
                     lines.append(f"{name}({', '.join(repr(a) for a in args)})")
                     break
+        from llmpas.reasoning.methods import REGISTRY
+
         if REGISTRY[self.method].reader == "skill":
             return "Robot action: " + (lines[-1] if lines else "done()")
         return "\n".join(lines) or "pass"

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from llmpas.files import atomic_write
+from llmpas.reasoning.truth_oracle import ORACLE
 from llmpas.reporting import diagram
 from llmpas.reporting.html import Markup, href, join, slug, tag, void
 from llmpas.reporting.record import (
@@ -227,7 +228,7 @@ def _llm_line(run: RunRecord) -> str:
     )
     spec = get_str(run.about, "llm")
     shown = spec or ", ".join(models)
-    if shown == "oracle":
+    if shown == ORACLE:
         return "oracle (reads the simulator's true state: an upper bound, not an LLM)"
     if models and spec and models != [spec]:
         shown += f" (model: {', '.join(models)})"

@@ -10,4 +10,3 @@ WORLD_ENTRY = WorldEntry(
     help="a household scenario name, or a household .toml",
     files="llmpas.worlds.household.plugin:scenario_path",
 )
-

@@ -23,4 +23,3 @@ WORLD_ENTRY = WorldEntry(
     rank=1,
     help="object-loss, action-blocking (PyBullet Husky + Panda)",
 )
-

@@ -11,4 +11,3 @@ WORLD_ENTRY = WorldEntry(
     rank=3,
     sites=True,
 )
-
