@@ -264,6 +264,7 @@ def _readme_row(extension: str) -> tuple[str, ...]:
 
 
 def test_the_readme_lists_what_each_registry_holds() -> None:
+    from llmpas.catalog import worlds
     from llmpas.experiments.benchmarks import benchmark_names
     from llmpas.reasoning.methods import method_names
 
@@ -271,3 +272,4 @@ def test_the_readme_lists_what_each_registry_holds() -> None:
     assert _readme_row("classical planner") == registry.classical_names()
     assert _readme_row("prompting method") == method_names()
     assert _readme_row("benchmark") == benchmark_names()
+    assert _readme_row("world") == tuple(worlds())
