@@ -124,3 +124,26 @@ def test_a_shipped_scenario_name_finds_its_world(tree: Path) -> None:
     run = llmpas(tree, "run", "atlas-on-shelf2", "--llm", "oracle", "--rounds", "2")
     assert run.returncode == 0, run.stdout + run.stderr
     assert "a library (in memory)" in run.stdout or "task done" in run.stdout
+
+
+LISTING = """
+import sys
+from llmpas.catalog import robots, worlds
+names = list(worlds()), list(robots())
+heavy = sorted(m for m in sys.modules if m == "pybullet" or m.startswith("rclpy")
+               or (m.startswith("llmpas.worlds.") and m.count(".") > 2))
+print(names, heavy)
+"""
+
+
+def test_the_registry_reads_the_folders_without_loading_a_world() -> None:
+    """Listing the worlds and robots imports each folder's ``__init__`` only: no world module
+    (``llmpas.worlds.X.Y``; ``llmpas.worlds.api``, the protocol, is no world), no simulator."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    out = subprocess.run(
+        [sys.executable, "-c", LISTING], capture_output=True, text=True, timeout=120, env=env
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == (
+        "(['household', 'pybullet', 'tabletop', 'ros2'], ['pybullet']) []"
+    ), out.stdout

@@ -9,12 +9,7 @@ from collections.abc import Callable
 
 from rich.console import Console
 
-from llmpas.errors import (
-    ExitCode,
-    LlmpasError,
-    PlannerError,
-    UsageError,
-)
+from llmpas.errors import ExitCode, LlmpasError, PlannerError, UsageError
 from llmpas.options import positive_float, seed
 from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, registry
 from llmpas.planning.quality import DEFAULT_QUALITY, QUALITIES

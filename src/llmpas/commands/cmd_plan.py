@@ -19,11 +19,7 @@ from llmpas.commands.cmd_common import (
     planner_config,
     planning_failed,
 )
-from llmpas.errors import (
-    ExitCode,
-    InputError,
-    PlannerError,
-)
+from llmpas.errors import ExitCode, InputError, PlannerError
 from llmpas.files import atomic_write
 from llmpas.language.errors import BindingError
 from llmpas.language.problem import Problem, read_problem

@@ -25,11 +25,7 @@ from llmpas.commands.cmd_world import (
     web_report,
     world_name,
 )
-from llmpas.errors import (
-    ExitCode,
-    InputError,
-    LlmpasError,
-)
+from llmpas.errors import ExitCode, InputError, LlmpasError
 from llmpas.options import positive_float, positive_int
 from llmpas.safetext import printable
 

@@ -10,9 +10,7 @@ from rich.markup import escape
 from rich.text import Text
 
 from llmpas.commands.cmd_common import CliError, one_line_errors
-from llmpas.errors import (
-    ExitCode,
-)
+from llmpas.errors import ExitCode
 
 
 def _cmd_model_install(args: argparse.Namespace, console: Console) -> int:

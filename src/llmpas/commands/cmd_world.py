@@ -21,10 +21,7 @@ from llmpas.commands.cmd_common import (
     planner_config,
     planning_failed,
 )
-from llmpas.errors import (
-    InputError,
-    UsageError,
-)
+from llmpas.errors import InputError, UsageError
 from llmpas.files import atomic_write
 from llmpas.language.errors import LanguageError
 

@@ -80,7 +80,9 @@ import llmpas.worlds.ros2.site_session
 loaded = [m for m in sys.modules if m.startswith("llmpas.worlds.") or m == "pybullet_data"]
 scenario = ("llmpas.worlds.pybullet.run", "llmpas.worlds.pybullet.plugin",
             "llmpas.worlds.ros2.session", "pybullet_data")
-bad = [m for m in loaded if m in scenario or m.startswith("llmpas.worlds.pybullet_ros2")]
+# the robot's package itself is read for its registration (ROBOT_ENTRY: names only, by the
+# registry, llmpas.catalog); none of its modules loads
+bad = [m for m in loaded if m in scenario or m.startswith("llmpas.worlds.pybullet_ros2.")]
 print(",".join(bad))
 """
 
