@@ -42,6 +42,11 @@ def test_the_contracts_hold() -> None:
         ("reasoning/goals.py", "import llmpas.worlds.household.scenario", "reasoning never"),
         ("system/search.py", "import llmpas.system.loop", "inside system"),
         ("system/records.py", "import llmpas.system.run", "inside system"),
+        # llmpas run and the product's registry import nothing of the experiments
+        ("commands/cmd_run.py", "import llmpas.experiments.prompting", "the product imports"),
+        ("catalog.py", "import llmpas.experiments.worlds", "the product imports"),
+        ("cli.py", "import llmpas.experiments.jobs", "main module imports the experiments"),
+        ("commands/cmd_world.py", "import llmpas.worlds.household.plugin", "imports no world"),
     ],
 )
 def test_a_back_import_breaks_a_contract(
