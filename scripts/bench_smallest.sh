@@ -16,6 +16,7 @@ names=("$@")
 mkdir -p "$out/help"
 cd "$out"
 llmpas bench --help >"help/bench.txt" 2>&1
+llmpas bench all --help >"help/all.txt" 2>&1
 for name in "${names[@]}"; do
     llmpas bench "$name" --help >"help/$name.txt" 2>&1
     o="$out/$name"
