@@ -75,10 +75,8 @@ def add_shared_arguments(p: argparse.ArgumentParser, options: SharedOptions) -> 
     if options.jobs:
         p.add_argument("--jobs", type=options.jobs_type, default=1, help=options.jobs_help)
     if options.out is not None:
-        p.add_argument(
-            "--out", type=options.out_type, default=options.out_type(options.out),
-            help=options.out_help,
-        )  # fmt: skip
+        default = options.out_type(options.out)
+        p.add_argument("--out", type=options.out_type, default=default, help=options.out_help)
     if options.executor:
         add_executor_arguments(p)
 
