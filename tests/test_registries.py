@@ -51,7 +51,8 @@ ALGORITHM = '''
     """A planning algorithm: incremental planning under another name (the example of adding one)."""
 
     from llmpas.planning.result import PlanResult
-    from llmpas.planning.tamp import Run, plan_incremental
+    from llmpas.planning.planner_run import Run
+    from llmpas.planning.tamp import plan_incremental
 
 
     def plan(run: Run) -> PlanResult:

@@ -19,6 +19,7 @@ from llmpas.language.problem import Problem
 from llmpas.language.streams import read_streams
 from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, solve
 from llmpas.planning import instances as instances_module
+from llmpas.planning import planner_run as run_module
 from llmpas.planning import tamp as tamp_module
 from llmpas.planning.downward import DownwardConfig, _invariant_arguments
 from llmpas.planning.result import Algorithm
@@ -100,6 +101,7 @@ def slowed(monkeypatch: pytest.MonkeyPatch, step: float) -> None:
     clock = SlowClock(step)
     monkeypatch.setattr(tamp_module, "time", clock)
     monkeypatch.setattr(instances_module, "time", clock)
+    monkeypatch.setattr(run_module, "time", clock)
 
 
 # ------------------------------------------------------------------------------------ config

@@ -21,7 +21,7 @@ from llmpas.language.domain import parse_domain
 from llmpas.language.problem import Problem
 from llmpas.language.streams import parse_streams
 from llmpas.planning import PlannerConfig, PlanResult, solve
-from llmpas.planning import tamp as tamp_module
+from llmpas.planning import planner_run as run_module
 from llmpas.planning.quality import QUALITIES
 
 DOMAIN = """
@@ -89,7 +89,7 @@ def without_improve_depth(monkeypatch: pytest.MonkeyPatch) -> None:
     """The planner with every quality searching at full depth after a new incumbent (the
     behaviour before ``improve_depth``)."""
     plain = {k: dataclasses.replace(q, improve_depth=None) for k, q in QUALITIES.items()}
-    monkeypatch.setattr(tamp_module, "QUALITIES", plain)
+    monkeypatch.setattr(run_module, "QUALITIES", plain)
 
 
 @pytest.mark.parametrize("name", ["anytime", "optimal"])

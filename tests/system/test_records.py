@@ -47,9 +47,7 @@ def test_belief_and_truth_side_by_side(
 
 
 def test_the_package_re_exports_every_name_of_the_module_it_replaced() -> None:
-    import llmpas.recovery
     import llmpas.system
-    import llmpas.system.recovery
 
     before = {
         "LLMFor",
@@ -72,8 +70,6 @@ def test_the_package_re_exports_every_name_of_the_module_it_replaced() -> None:
     }
     assert before <= set(dir(llmpas.system))
     assert set(llmpas.system.__all__) <= set(dir(llmpas.system))
-    for name in llmpas.system.recovery.__all__:
-        assert getattr(llmpas.recovery, name) is getattr(llmpas.system.recovery, name)
 
 
 def test_a_perceived_verdict_says_so(tmp_path: Path) -> None:

@@ -9,6 +9,12 @@ exit status) and its step in ``llmpas bench all`` (:meth:`Benchmark.step`: its o
 the module is imported the first time it is needed (:func:`benchmark`). The command line builds
 one subcommand per entry, and ``bench all`` runs the entries' steps in the registry's order: a new
 benchmark is one new module and one line here.
+
+A benchmark with trials is a :class:`~llmpas.experiments.harness.Harnessed`: it declares its own
+options, its config, its run and which shared options it takes; the harness adds ``--jobs``,
+``--out`` and the executor's options, runs the trials cached under ``OUT/cache`` (resumable, on
+local processes or Ray) and reads them back as rows. :class:`Bench` is for the commands without
+trials of their own (``validate-data``, ``report``, ``ros``, ``live``).
 """
 
 from __future__ import annotations

@@ -26,7 +26,7 @@ from typing import Any
 
 from rich.console import Console
 
-from llmpas.experiments.benchmarks import AllConfig, Bench
+from llmpas.experiments.benchmarks import AllConfig
 from llmpas.experiments.blocks.planners import (
     DECODINGS,
     METHODS,
@@ -45,16 +45,14 @@ from llmpas.experiments.blocks.tasks import (
     read_tasks,
     reference_plan,
 )
+from llmpas.experiments.harness import Harnessed, Shared, SharedOptions, rows_of, run_trials
 from llmpas.experiments.jobs import (
     ExecutorSpec,
     Job,
-    add_executor_arguments,
     add_llm_argument,
     backend,
-    executor_from_args,
     fingerprint,
     llm_resources,
-    run_jobs,
 )
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning.downward import ClassicalStatus
@@ -304,15 +302,12 @@ def run_blocksworld(
     ``config.jobs > 1``); its ``name`` labels the results and keys the cache."""
     console = console or Console(stderr=True)
     tasks = load_tasks(config)
-    cache = config.out_dir / "cache"
-    refs = run_jobs(
+    refs = run_trials(
+        config,
         [Job(f"reference/{t.name}/{fingerprint(_task_key(t, OPTIMAL_SEARCH))}", t) for t in tasks],
         _reference_job,
-        cache,
-        workers=config.jobs,
-        description="reference plans (Fast Downward)",
-        console=console,
-        executor=config.executor,
+        "reference plans (Fast Downward)",
+        console,
     )
     references = {
         t.name: tuple(Step(p[0], tuple(p[1:])) for p in r["plan"])
@@ -345,17 +340,8 @@ def run_blocksworld(
             )
             needs = llm_resources(config.llm) if uses_llm and llm is None else {}
             jobs.append(Job(f"{method}/{_safe(key_llm)}/{t.name}/{digest}", payload, needs))
-    results = run_jobs(
-        jobs,
-        run_job,
-        cache,
-        workers=config.jobs,
-        description=f"blocks world ({llm_name})",
-        console=console,
-        executor=config.executor,
-    )
-    names = {f.name for f in TaskResult.__dataclass_fields__.values()}
-    outcomes = tuple(TaskResult(**{k: v for k, v in r.items() if k in names}) for r in results)
+    results = run_trials(config, jobs, run_job, f"blocks world ({llm_name})", console)
+    outcomes = tuple(rows_of(TaskResult, results))
     rows = summarise(outcomes)
     files = write_outputs(outcomes, rows, config, llm_name)
     console.print(
@@ -403,14 +389,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="COPAL: sampling temperature of the corrections (the first plan is greedy)",
     )
     p.add_argument("--decoding", default="grammar", choices=DECODINGS)
-    p.add_argument("--jobs", type=int, default=1, help="tasks run in parallel processes")
-    p.add_argument("--out", default="results/blocksworld", help="folder for tables and plot")
-    add_executor_arguments(p)
 
 
-def command(args: argparse.Namespace, console: Console) -> int:
-    """``llmpas bench blocksworld``; user errors are ValueError/LLMError with one line."""
-    config = BlocksConfig(
+def config_from(args: argparse.Namespace, shared: Shared) -> BlocksConfig:
+    """The config of ``llmpas bench blocksworld``; user errors are ValueError/LLMError with
+    one line."""
+    return BlocksConfig(
         methods=tuple(args.methods),
         sizes=tuple(args.sizes),
         count=args.count,
@@ -424,13 +408,14 @@ def command(args: argparse.Namespace, console: Console) -> int:
             decoding=args.decoding,
             correction_temperature=args.correction_temperature,
         ),
-        jobs=args.jobs,
-        out_dir=Path(args.out),
-        executor=executor_from_args(args),
+        jobs=shared.jobs,
+        out_dir=shared.out_dir,
+        executor=shared.executor,
     )
-    report = run_blocksworld(config, console)
-    console.print(f"wrote {', '.join(str(p) for p in report.files)}")
-    return 0
+
+
+def _run(config: BlocksConfig, console: Console) -> tuple[Path, ...]:
+    return run_blocksworld(config, console).files
 
 
 # ---------------------------------------------------------------------------------- tables
@@ -559,11 +544,17 @@ def _in_all(config: AllConfig) -> tuple[str, ...]:
     return (*options, *config.outputs("blocksworld"))
 
 
-BENCHMARK = Bench(
+BENCHMARK = Harnessed(
     "blocksworld",
     "LLMs as blocks-world planners: SR per size",
     add_arguments,
-    command,
+    config_from,
+    _run,
+    SharedOptions(
+        out="results/blocksworld",
+        out_help="folder for tables and plot",
+        jobs_help="tasks run in parallel processes",
+    ),
     _in_all,
 )
 
@@ -575,7 +566,7 @@ __all__ = [
     "TaskResult",
     "add_arguments",
     "build_llm",
-    "command",
+    "config_from",
     "markdown_table",
     "method_label",
     "run_blocksworld",

@@ -21,7 +21,8 @@ from pathlib import Path
 from rich.console import Console
 
 from llmpas.experiments.benchmarks import ORACLE, AllConfig, benchmarks
-from llmpas.experiments.jobs import add_executor_arguments, add_llm_argument, executor_from_args
+from llmpas.experiments.harness import SharedOptions, add_shared_arguments, shared_from_args
+from llmpas.experiments.jobs import add_llm_argument
 from llmpas.files import atomic_write
 
 QUICK_TASKS = ("ol01-table2", "ab06-sink-mug", "sc06-apple-frozen-stove")
@@ -118,26 +119,32 @@ def summary_markdown(config: AllConfig, outcomes: Sequence[Outcome]) -> str:
 # ------------------------------------------------------------------------------------ CLI
 
 
+SHARED = SharedOptions(
+    out="results",
+    out_help="one folder per experiment under this",
+    jobs_help="parallel processes per experiment",
+)
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """The options of ``llmpas bench all``."""
     add_llm_argument(p)
-    p.add_argument("--jobs", type=int, default=1, help="parallel processes per experiment")
     p.add_argument("--samples", type=int, default=3, help="prompting: samples per task")
     p.add_argument("--count", type=int, default=20, help="blocks world: instances per size")
     p.add_argument("--quick", action="store_true", help="a small slice of every experiment")
-    p.add_argument("--out", default="results", help="one folder per experiment under this")
-    add_executor_arguments(p)
+    add_shared_arguments(p, SHARED)
 
 
 def command(args: argparse.Namespace, console: Console, run: Runner) -> int:
+    shared = shared_from_args(args)
     config = AllConfig(
         llm=args.llm,
-        jobs=args.jobs,
+        jobs=shared.jobs,
         samples=args.samples,
         count=args.count,
         quick=args.quick,
-        out_dir=Path(args.out),
-        executor=executor_from_args(args),
+        out_dir=shared.out_dir,
+        executor=shared.executor,
     )
     if config.executor.kind == "ray":  # one line now, not one failure per step
         from llmpas.experiments.cluster import import_ray

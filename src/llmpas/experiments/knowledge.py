@@ -32,15 +32,15 @@ import pickle
 import statistics
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from rich.console import Console
 
-from llmpas.experiments.benchmarks import Bench
 from llmpas.experiments.effective import is_effective, lost_object
-from llmpas.experiments.jobs import Job, add_llm_argument, backend, run_jobs
+from llmpas.experiments.harness import Harnessed, Shared, SharedOptions, run_trials
+from llmpas.experiments.jobs import ExecutorSpec, Job, add_llm_argument, backend
 from llmpas.experiments.suite import SUITE_DIR, SuiteTask, development_half, load_suite, load_task
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.options import positive_int
@@ -247,6 +247,7 @@ class KnowledgeConfig:
     tasks: tuple[str, ...] = ()
     jobs: int = 1
     out_dir: Path = Path("results/knowledge")
+    executor: ExecutorSpec = field(default_factory=ExecutorSpec)
 
     def __post_init__(self) -> None:
         for s in self.scorings:
@@ -273,14 +274,7 @@ def record(config: KnowledgeConfig, console: Console) -> list[Recorded]:
     """Every task's first consultation, recorded once (cached in ``OUT/record``)."""
     tasks = tasks_of(config)
     jobs = [Job(f"record-{t.name}-{t.digest[:12]}", (t.source, t.digest)) for t in tasks]
-    done = run_jobs(
-        jobs,
-        record_job,
-        config.out_dir / "record",
-        workers=config.jobs,
-        description="recording first consultations",
-        console=console,
-    )
+    done = run_trials(config, jobs, record_job, "recording first consultations", console, "record")
     return [
         Recorded(
             d["task"],
@@ -306,14 +300,7 @@ def ranked(
         for how in config.hows:
             key = f"rank-{config.llm}-{how}-{r.task}-{_digest(r.data)}"
             jobs.append(Job(key, (r.data, r.task, how, config.llm), {"llm": 1}))
-    done = run_jobs(
-        jobs,
-        rank_job,
-        config.out_dir / "cache",
-        workers=config.jobs,
-        description=f"ranking with {config.llm}",
-        console=console,
-    )
+    done = run_trials(config, jobs, rank_job, f"ranking with {config.llm}", console)
     out = {}
     pairs = [(r, how) for r in records if r.informative for how in config.hows]
     for (r, how), d in zip(pairs, done, strict=True):
@@ -426,33 +413,34 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--suite", type=Path, default=SUITE_DIR, help="folder of task files")
     p.add_argument("--half", choices=("development", "rest"), default=None)
     p.add_argument("--tasks", nargs="+", default=[], help="only these tasks (file stems)")
-    p.add_argument("--jobs", type=positive_int, default=1)
-    p.add_argument("--out", type=Path, default=Path("results/knowledge"))
 
 
-def command(args: argparse.Namespace, console: Console) -> int:
-    """``llmpas bench knowledge``."""
-    config = KnowledgeConfig(
+def config_from(args: argparse.Namespace, shared: Shared) -> KnowledgeConfig:
+    """The config of ``llmpas bench knowledge``'s options."""
+    return KnowledgeConfig(
         args.llm,
         tuple(args.methods),
         tuple(args.scorings),
         args.suite,
         args.half,
         tuple(args.tasks),
-        args.jobs,
-        args.out,
+        shared.jobs,
+        shared.out_dir,
     )
+
+
+def _run(config: KnowledgeConfig, console: Console) -> None:
     run_knowledge(config, console)
     console.print(f"wrote {config.out_dir / 'knowledge.md'}, .csv, .png")
-    return 0
 
 
-BENCHMARK = Bench(
+BENCHMARK = Harnessed(
     "knowledge",
     "what a model knows: its ranking of the loop's checked candidates against a shuffled order",
     add_arguments,
-    command,
-    None,
+    config_from,
+    _run,
+    SharedOptions(out="results/knowledge", jobs_type=positive_int, executor=False, out_type=Path),
 )
 
 __all__ = [

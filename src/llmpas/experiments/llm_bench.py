@@ -48,7 +48,8 @@ from typing import Any
 
 from rich.console import Console
 
-from llmpas.experiments.benchmarks import AllConfig, Bench
+from llmpas.experiments.benchmarks import AllConfig
+from llmpas.experiments.harness import Harnessed, Shared, SharedOptions
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.options import positive_int
 from llmpas.reasoning.llm import LLMError, Message, Request
@@ -638,11 +639,23 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--scores", type=int, default=3, help="score requests measured (0: leave them out)"
     )
-    p.add_argument("--out", default="results/llm")
 
 
-def command(args: argparse.Namespace, console: Console) -> int:
-    """``llmpas bench llm``."""
+@dataclass(frozen=True)
+class LlmBenchConfig:
+    """One ``llmpas bench llm``: the model, the recorded requests, where it writes, the first
+    ``consultations`` (None: all), the busy rows' seconds and the score requests measured."""
+
+    model: Path
+    cassettes: Path
+    out_dir: Path
+    consultations: int | None
+    busy: float
+    scores: tuple[Path, int]
+
+
+def config_from(args: argparse.Namespace, shared: Shared) -> LlmBenchConfig:
+    """The config of ``llmpas bench llm``'s options (ValueError / LLMError: one line)."""
     from llmpas.reasoning.models import DEFAULT_MODEL, model_path
 
     cassettes = Path(args.cassettes)
@@ -656,27 +669,25 @@ def command(args: argparse.Namespace, console: Console) -> int:
     score_folder = Path(args.score_cassettes)
     if args.scores and not score_folder.is_dir():
         raise ValueError(f"--score-cassettes {score_folder}: no such folder")
-    files = run_bench(
-        model,
-        cassettes,
-        Path(args.out),
-        args.consultations,
-        console,
-        args.busy,
-        (score_folder, args.scores),
+    return LlmBenchConfig(
+        model, cassettes, shared.out_dir, args.consultations, args.busy, (score_folder, args.scores)
     )
-    console.print(f"wrote {', '.join(str(p) for p in files)}")
-    return 0
+
+
+def _run(c: LlmBenchConfig, console: Console) -> list[Path]:
+    return run_bench(c.model, c.cassettes, c.out_dir, c.consultations, console, c.busy, c.scores)
 
 
 def _in_all(config: AllConfig) -> tuple[str, ...] | None:
     return None  # it needs the offline model and minutes of it: run on its own
 
 
-BENCHMARK = Bench(
+BENCHMARK = Harnessed(
     "llm",
     "the offline model on the loop's recorded prompts: settings before, defaults, limit",
     add_arguments,
-    command,
+    config_from,
+    _run,
+    SharedOptions(out="results/llm", jobs=False, executor=False),
     _in_all,
 )

@@ -42,7 +42,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field
 from importlib.resources import files
 from pathlib import Path
 from typing import Any
@@ -50,14 +50,11 @@ from typing import Any
 from rich.console import Console
 
 from llmpas.experiments import pds_profile
-from llmpas.experiments.benchmarks import Bench
+from llmpas.experiments.harness import Harnessed, Shared, SharedOptions, rows_of, run_trials
 from llmpas.experiments.jobs import (
     ExecutorSpec,
     Job,
-    add_executor_arguments,
-    executor_from_args,
     fingerprint,
-    run_jobs,
 )
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.pddlstream.runner import package_root
@@ -514,17 +511,10 @@ def run_bench(config: PdsBenchConfig, console: Console | None = None) -> Report:
         raise ValueError(
             f"bench pddlstream: no run.py, nor any script importing pddlstream, in {config.folder}"
         )
-    results = run_jobs(
-        jobs_for(config, instances),
-        run_trial,
-        config.out_dir / "cache",
-        workers=config.jobs,
-        executor=config.executor,
-        description="bench pddlstream",
-        console=console,
+    results = run_trials(
+        config, jobs_for(config, instances), run_trial, "bench pddlstream", console
     )
-    names = {f.name for f in fields(Trial)}
-    trials = tuple(Trial(**{k: v for k, v in r.items() if k in names}) for r in results)
+    trials = tuple(rows_of(Trial, results))
     rows = summarise(trials)
     out = config.out_dir
     out.mkdir(parents=True, exist_ok=True)
@@ -606,34 +596,38 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="profile each run: CPU per category and stream, searches, plans (profile.md)",
     )
-    p.add_argument("--jobs", type=int, default=1, help="parallel runs (> 1: contended CPU)")
-    p.add_argument("--out", default="results/pddlstream", help="folder for table, plot, cache")
-    add_executor_arguments(p)
 
 
-def command(args: argparse.Namespace, console: Console) -> int:
-    config = PdsBenchConfig(
+def config_from(args: argparse.Namespace, shared: Shared) -> PdsBenchConfig:
+    return PdsBenchConfig(
         folder=Path(args.folder),
         instances=tuple(Instance.parse(t) for t in args.instance),
         seeds=args.seeds,
         timeout=args.timeout,
         pddlstream=Path(args.pddlstream) if args.pddlstream else None,
         python=args.pddlstream_python,
-        out_dir=Path(args.out),
+        out_dir=shared.out_dir,
         profile=args.profile,
-        jobs=args.jobs,
-        executor=executor_from_args(args),
+        jobs=shared.jobs,
+        executor=shared.executor,
     )
-    report = run_bench(config, console)
-    console.print(f"wrote {', '.join(str(p) for p in report.files)}")
-    return 0
 
 
-BENCHMARK = Bench(
+def _run(config: PdsBenchConfig, console: Console) -> tuple[Path, ...]:
+    return run_bench(config, console).files
+
+
+BENCHMARK = Harnessed(
     "pddlstream",
     "PDDLStream example scripts (a folder you supply), optionally beside a real PDDLStream",
     add_arguments,
-    command,
+    config_from,
+    _run,
+    SharedOptions(
+        out="results/pddlstream",
+        out_help="folder for table, plot, cache",
+        jobs_help="parallel runs (> 1: contended CPU)",
+    ),
 )
 
 __all__ = [

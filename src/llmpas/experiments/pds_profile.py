@@ -182,12 +182,12 @@ RULES: Mapping[str, Rules] = {
         searches=_named(("llmpas/planning/downward.py", "_search")),
         translations=_named(("<string>", "_translate_measured")),
         optimistic_plans=(
-            _named(("llmpas/planning/tamp.py", "_evaluate")),
+            _named(("llmpas/planning/skeletons.py", "evaluate_streams")),
             _named(("llmpas/planning/tamp.py", "_focused")),
         ),
-        skeletons=_named(("llmpas/planning/tamp.py", "_resample")),
+        skeletons=_named(("llmpas/planning/skeletons.py", "resample")),
         iterations=(
-            _named(("llmpas/planning/tamp.py", "patience_left")),
+            _named(("llmpas/planning/planner_run.py", "patience_left")),
             None,
         ),
     ),

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -20,15 +20,13 @@ import numpy as np
 import py_trees
 from rich.console import Console
 
-from llmpas.experiments.benchmarks import AllConfig, Bench
+from llmpas.experiments.benchmarks import AllConfig
+from llmpas.experiments.harness import Harnessed, Shared, SharedOptions, rows_of, run_trials
 from llmpas.experiments.jobs import (
     ExecutorSpec,
     Job,
-    add_executor_arguments,
-    executor_from_args,
     fingerprint,
     not_cacheable,
-    run_jobs,
 )
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.options import positive_int
@@ -209,26 +207,13 @@ def jobs_for(config: PerturbationConfig) -> list[Job[Payload]]:
     return out
 
 
-def _outcome(result: dict[str, Any]) -> Outcome:
-    names = {f.name for f in fields(Outcome)}
-    return Outcome(**{k: v for k, v in result.items() if k in names})
-
-
 def run_perturbation(
     config: PerturbationConfig, console: Console | None = None
 ) -> tuple[list[Outcome], list[Path]]:
     """Run (or resume) every (episode, mode) not cached yet; write the CSV, table and plot."""
     console = console or Console()
-    results = run_jobs(
-        jobs_for(config),
-        run_job,
-        config.out_dir / "cache",
-        workers=config.jobs,
-        description="perturbation",
-        console=console,
-        executor=config.executor,
-    )
-    outcomes = [_outcome(r) for r in results]
+    results = run_trials(config, jobs_for(config), run_job, "perturbation", console)
+    outcomes = rows_of(Outcome, results)
     files = _write(outcomes, config)
     console.print(summary(outcomes))
     return outcomes, files
@@ -334,28 +319,21 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     """The options of ``llmpas bench perturbation``."""
     p.add_argument("--episodes", type=positive_int, default=200)
     p.add_argument("--seed", type=seed_option, default=0)
-    p.add_argument("--out", default="results/perturbation")
-    p.add_argument(
-        "--jobs",
-        type=positive_int,
-        default=1,
-        help="parallel processes (results cached under OUT/cache)",
-    )
-    add_executor_arguments(p)
 
 
-def command(args: argparse.Namespace, console: Console) -> int:
-    """``llmpas bench perturbation``."""
-    config = PerturbationConfig(
+def config_from(args: argparse.Namespace, shared: Shared) -> PerturbationConfig:
+    """The config of ``llmpas bench perturbation``'s options."""
+    return PerturbationConfig(
         episodes=args.episodes,
         seed=args.seed,
-        out_dir=Path(args.out),
-        jobs=args.jobs,
-        executor=executor_from_args(args),
+        out_dir=shared.out_dir,
+        jobs=shared.jobs,
+        executor=shared.executor,
     )
-    _, files = run_perturbation(config, console)
-    console.print(f"wrote {', '.join(str(p) for p in files)}")
-    return 0
+
+
+def _run(config: PerturbationConfig, console: Console) -> list[Path]:
+    return run_perturbation(config, console)[1]
 
 
 def _in_all(config: AllConfig) -> tuple[str, ...]:
@@ -363,10 +341,16 @@ def _in_all(config: AllConfig) -> tuple[str, ...]:
     return ("--episodes", episodes, *config.jobs_argv(), *config.outputs("perturbation"))
 
 
-BENCHMARK = Bench(
+BENCHMARK = Harnessed(
     "perturbation",
     "household episodes with tolerable disturbances: CSubBT vs flat execution, no LLM",
     add_arguments,
-    command,
+    config_from,
+    _run,
+    SharedOptions(
+        out="results/perturbation",
+        jobs_help="parallel processes (results cached under OUT/cache)",
+        jobs_type=positive_int,
+    ),
     _in_all,
 )

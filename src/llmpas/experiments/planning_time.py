@@ -20,22 +20,20 @@ import logging
 import statistics
 import warnings
 from collections.abc import Iterable, Sequence
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 from rich.console import Console
 
 from llmpas.examples import EXAMPLES, get_example
-from llmpas.experiments.benchmarks import AllConfig, Bench
+from llmpas.experiments.benchmarks import AllConfig
+from llmpas.experiments.harness import Harnessed, Shared, SharedOptions, rows_of, run_trials
 from llmpas.experiments.jobs import (
     ExecutorSpec,
     Job,
-    add_executor_arguments,
-    executor_from_args,
     fingerprint,
     not_cacheable,
-    run_jobs,
 )
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.options import MAX_EXAMPLE_SIZE, bounded_int, positive_float, positive_int
@@ -217,11 +215,6 @@ def jobs_for(config: BenchConfig) -> list[Job[Payload]]:
     return out
 
 
-def _trial(result: dict[str, Any]) -> Trial:
-    names = {f.name for f in fields(Trial)}
-    return Trial(**{k: v for k, v in result.items() if k in names})
-
-
 def run_planning_time(config: BenchConfig, console: Console | None = None) -> Report:
     """Run (or resume) every trial not cached yet; write the CSV, table and plot."""
     console = console or Console()
@@ -237,22 +230,14 @@ def run_planning_time(config: BenchConfig, console: Console | None = None) -> Re
             "are contended (use the local executor with --jobs 1 for timings to report)",
             config.executor.kind,
         )
-    results = run_jobs(
-        jobs_for(config),
-        run_job,
-        config.out_dir / "cache",
-        workers=config.jobs,
-        description="planning-time",
-        console=console,
-        executor=config.executor,
-    )
+    results = run_trials(config, jobs_for(config), run_job, "planning-time", console)
     measured = max(int(r.get("jobs", 1)) for r in results)
     if measured > config.jobs:
         log.warning(
             "planning-time: cached timings were measured with %d parallel jobs: contended",
             measured,
         )
-    trials = [_trial(r) for r in results]
+    trials = rows_of(Trial, results)
     rows = summarise(trials)
     files = write_outputs(trials, rows, config, measured)
     console.print(markdown_table(rows, config, measured))
@@ -364,7 +349,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--trials", type=positive_int, default=5)
     p.add_argument("--max-time", type=positive_float, default=60.0, help="seconds per planning run")
-    p.add_argument("--out", default="results/planning-time")
     p.add_argument(
         "--quality", choices=tuple(QUALITIES), default=DEFAULT_QUALITY, help="plan quality"
     )
@@ -374,17 +358,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--classical", choices=registry.classical_names(), default=registry.DEFAULT_CLASSICAL
     )
-    p.add_argument(
-        "--jobs",
-        type=positive_int,
-        default=1,
-        help="parallel processes (> 1: timings are contended; results cached under OUT/cache)",
-    )
-    add_executor_arguments(p)
 
 
-def command(args: argparse.Namespace, console: Console) -> int:
-    """``llmpas bench planning-time``."""
+def config_from(args: argparse.Namespace, shared: Shared) -> BenchConfig:
+    """The config of ``llmpas bench planning-time``'s options."""
     unknown = [e for e in args.examples if e not in EXAMPLES]
     if unknown:
         known = ", ".join(sorted(EXAMPLES))
@@ -394,16 +371,18 @@ def command(args: argparse.Namespace, console: Console) -> int:
         trials=args.trials,
         max_time=args.max_time,
         sizes=tuple(args.sizes) if args.sizes else None,
-        out_dir=Path(args.out),
+        out_dir=shared.out_dir,
         algorithm=args.algorithm,
         classical=args.classical,
         quality=args.quality,
-        jobs=args.jobs,
-        executor=executor_from_args(args),
+        jobs=shared.jobs,
+        executor=shared.executor,
     )
-    report = run_planning_time(config, console)
-    console.print(f"wrote {', '.join(str(p) for p in report.files)}")
-    return 0
+    return config
+
+
+def _run(config: BenchConfig, console: Console) -> tuple[Path, ...]:
+    return run_planning_time(config, console).files
 
 
 def _in_all(config: AllConfig) -> tuple[str, ...]:
@@ -412,10 +391,16 @@ def _in_all(config: AllConfig) -> tuple[str, ...]:
     return (*quick, *config.outputs("planning-time"))
 
 
-BENCHMARK = Bench(
+BENCHMARK = Harnessed(
     "planning-time",
     "initial planning time vs size, deferred vs computed",
     add_arguments,
-    command,
+    config_from,
+    _run,
+    SharedOptions(
+        out="results/planning-time",
+        jobs_help="parallel processes (> 1: timings are contended; results cached under OUT/cache)",
+        jobs_type=positive_int,
+    ),
     _in_all,
 )

@@ -18,15 +18,15 @@ import json
 import statistics
 from collections import Counter
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from rich.console import Console
 
-from llmpas.experiments.benchmarks import Bench
+from llmpas.experiments.harness import Harnessed, Shared
+from llmpas.experiments.prompting import SHARED, PromptingConfig, config_from_args, run_prompting
 from llmpas.experiments.prompting import add_arguments as prompting_arguments
-from llmpas.experiments.prompting import config_from_args, run_prompting
 from llmpas.files import atomic_write
 from llmpas.system.records import DECIDED_BY
 
@@ -196,23 +196,26 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.set_defaults(methods=list(CONTROLS), llm="oracle", samples=1)
 
 
-def command(args: argparse.Namespace, console: Console) -> int:
+def config_from(args: argparse.Namespace, shared: Shared) -> PromptingConfig:
+    """``bench prompting``'s config, with every run kept."""
+    return replace(config_from_args(args, shared), keep_runs=True)
+
+
+def _run(config: PromptingConfig, console: Console) -> tuple[Path, ...]:
     """``llmpas bench recovery``: the prompting bench with every run kept, then the report."""
-    args.keep_runs = True
-    config = config_from_args(args)
     run_prompting(config, console)
     files = report(config.out_dir)
     console.print((config.out_dir / "recovery.md").read_text(), markup=False, highlight=False)
-    console.print(f"wrote {', '.join(map(str, files))}")
-    return 0
+    return files
 
 
-BENCHMARK = Bench(
+BENCHMARK = Harnessed(
     "recovery",
     "how each recovery is decided: checks per consultation, how decided, planner calls, time",
     add_arguments,
-    command,
-    None,
+    config_from,
+    _run,
+    SHARED,
 )
 
 __all__ = ["BENCHMARK", "CONTROLS", "read_runs", "report"]

@@ -38,7 +38,7 @@ import signal
 import statistics
 import time
 from collections.abc import Iterable, Sequence
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field
 from importlib.resources import files
 from multiprocessing.connection import Connection
 from pathlib import Path
@@ -49,14 +49,12 @@ from rich.console import Console
 from llmpas.examples.tamp2d_pds import FAMILIES, make_problem
 from llmpas.examples.tamp2d_pds.validate import validate
 from llmpas.experiments import pds_files
-from llmpas.experiments.benchmarks import AllConfig, Bench
+from llmpas.experiments.benchmarks import AllConfig
+from llmpas.experiments.harness import Harnessed, Shared, SharedOptions, rows_of, run_trials
 from llmpas.experiments.jobs import (
     ExecutorSpec,
     Job,
-    add_executor_arguments,
-    executor_from_args,
     fingerprint,
-    run_jobs,
 )
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning import PlannerConfig, solve
@@ -378,11 +376,6 @@ def _files_text(folder: Path | None) -> list[str]:
     return [] if folder is None else [(folder / f).read_text() for f in pds_files.FILES]
 
 
-def _trial(result: dict[str, Any]) -> Trial:
-    names = {f.name for f in fields(Trial)}
-    return Trial(**{k: v for k, v in result.items() if k in names})
-
-
 def run_tamp(config: TampBenchConfig, console: Console | None = None) -> Report:
     """Run (or resume) every trial, size by size; write the CSV, table and plot."""
     console = console or Console()
@@ -393,16 +386,8 @@ def run_tamp(config: TampBenchConfig, console: Console | None = None) -> Report:
     for size in sorted(set(config.sizes)):
         if not combos:
             break
-        results = run_jobs(
-            jobs_for(config, size, combos),
-            run_job,
-            config.out_dir / "cache",
-            workers=config.jobs,
-            executor=config.executor,
-            description=f"bench tamp N={size}",
-            console=console,
-        )
-        now = [_trial(r) for r in results]
+        jobs = jobs_for(config, size, combos)
+        now = rows_of(Trial, run_trials(config, jobs, run_job, f"bench tamp N={size}", console))
         trials += now
         if not config.keep_going:
             combos = [
@@ -633,8 +618,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--max-time", type=float, default=60.0, help="seconds per planning run")
     p.add_argument("--memory-mb", type=int, default=3072, help="address space of a trial")
     p.add_argument("--keep-going", action="store_true", help="run sizes past an unsolved one")
-    p.add_argument("--jobs", type=int, default=1, help="parallel trials (> 1: contended)")
-    p.add_argument("--out", default="results/tamp", help="folder for table, plot and cache")
     p.add_argument("--modes", nargs="+", default=list(MODES), choices=MODES)
     p.add_argument(
         "--qualities",
@@ -656,29 +639,29 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="one placeholder per stream output and level, as PDDLStream (an unsolvable task "
         "is planned again with one per instance)",
     )
-    add_executor_arguments(p)
 
 
-def command(args: argparse.Namespace, console: Console) -> int:
-    config = TampBenchConfig(
+def config_from(args: argparse.Namespace, shared: Shared) -> TampBenchConfig:
+    return TampBenchConfig(
         families=tuple(args.families),
         sizes=tuple(args.sizes),
         trials=args.trials,
         max_time=args.max_time,
-        jobs=args.jobs,
+        jobs=shared.jobs,
         memory_mb=args.memory_mb,
         keep_going=args.keep_going,
-        out_dir=Path(args.out),
-        executor=executor_from_args(args),
+        out_dir=shared.out_dir,
+        executor=shared.executor,
         share=args.share_placeholders,
         modes=tuple(args.modes),
         qualities=tuple(args.qualities),
         files=Path(args.pddlstream_files) if args.pddlstream_files else None,
         anytime_size=args.anytime_size,
     )
-    report = run_tamp(config, console)
-    console.print(f"wrote {', '.join(str(p) for p in report.files)}")
-    return 0
+
+
+def _run(config: TampBenchConfig, console: Console) -> tuple[Path, ...]:
+    return run_tamp(config, console).files
 
 
 def _in_all(config: AllConfig) -> tuple[str, ...]:
@@ -686,11 +669,17 @@ def _in_all(config: AllConfig) -> tuple[str, ...]:
     return (*quick, *config.outputs("tamp"))
 
 
-BENCHMARK = Bench(
+BENCHMARK = Harnessed(
     "tamp",
     "2-D continuous TAMP (mirror, packed): computed vs deferred",
     add_arguments,
-    command,
+    config_from,
+    _run,
+    SharedOptions(
+        out="results/tamp",
+        out_help="folder for table, plot and cache",
+        jobs_help="parallel trials (> 1: contended)",
+    ),
     _in_all,
 )
 
@@ -705,7 +694,7 @@ __all__ = [
     "TampBenchConfig",
     "Trial",
     "add_arguments",
-    "command",
+    "config_from",
     "label",
     "plot_anytime",
     "run_tamp",

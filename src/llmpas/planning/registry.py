@@ -4,7 +4,7 @@ An :class:`Entry` names its implementation as ``"module:attribute"``; the module
 first time the entry is used (:meth:`Entry.load`), as unified-planning's engine factory does, so
 that listing the choices (``llmpas plan --help``) imports no planner.
 
-- :data:`ALGORITHMS`: a function ``(run: llmpas.planning.tamp.Run) -> PlanResult`` that plans
+- :data:`ALGORITHMS`: a function ``(run: llmpas.planning.planner_run.Run) -> PlanResult`` that plans
   one call of :func:`~llmpas.planning.tamp.solve` (``PlannerConfig.algorithm``).
 - :data:`CLASSICAL_PLANNERS`: a factory ``(search: str, config: PlannerConfig) ->
   ClassicalPlanner`` (:class:`~llmpas.planning.downward.ClassicalPlanner`); ``search`` is the Fast

@@ -1,5 +1,5 @@
 """What the closed loop keeps from a recovery, apart from the round control itself
-(:mod:`llmpas.system.goals`; :mod:`llmpas.recovery` is kept as another name of this module).
+(:mod:`llmpas.system.goals`).
 
 **Recovery goals stay achieved.** Once the loop has accepted the LLM's goals and achieved them,
 later plans for the task keep them true (:func:`kept_goal`): they join the task's goal, except

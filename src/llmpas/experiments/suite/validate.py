@@ -13,6 +13,7 @@ from rich.console import Console
 
 from llmpas.errors import UsageError
 from llmpas.experiments.benchmarks import Bench
+from llmpas.experiments.harness import SharedOptions, add_shared_arguments
 from llmpas.experiments.jobs import progress_bar
 from llmpas.experiments.suite.checks import (
     HASH_SEEDS,
@@ -180,12 +181,14 @@ def add_validate_arguments(p: argparse.ArgumentParser) -> None:
         help="oracle runs per task, with PYTHONHASHSEED 0, 1, ... (l_gt: the shortest found); "
         "0: one run in this process",
     )
-    p.add_argument("--jobs", type=int, default=1, help="oracle runs in parallel processes")
     p.add_argument(
         "--max-time",
         type=float,
         default=600.0,
         help="planner safety net, seconds per plan (counted limits decide the verdict)",
+    )
+    add_shared_arguments(
+        p, SharedOptions(jobs_help="oracle runs in parallel processes", executor=False)
     )
 
 
