@@ -9,7 +9,6 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from llmpas.catalog import oracle_for
 from llmpas.experiments.worlds import LoopConfig, run_loop
 from llmpas.language.logic import Atom
 from llmpas.reasoning.backends.replay import ReplayBackend
@@ -17,6 +16,7 @@ from llmpas.reasoning.choose import Ranked
 from llmpas.reasoning.llm import ScoreRequest, Scores
 from llmpas.reasoning.methods import MethodConfig, Proposal
 from llmpas.system import LoopResult
+from llmpas.system.catalog import oracle_for
 from tests.test_system import Scripted, clean_blackboard  # noqa: F401 (autouse)
 
 DATA = Path(__file__).parent / "data" / "choose"

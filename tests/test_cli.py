@@ -183,7 +183,7 @@ def test_robot_command_is_the_worlds_own_with_one_parser(
 ) -> None:
     """``llmpas robot pybullet``: the ROS 2 world's registered command parses its options (the
     command line defines none of them); an unknown robot is one line naming the known ones."""
-    from llmpas.catalog import robots
+    from llmpas.system.catalog import robots
     from llmpas.worlds.pybullet_ros2 import command
 
     assert robots()["pybullet"].command == "llmpas.worlds.pybullet_ros2.command:run"

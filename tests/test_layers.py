@@ -44,7 +44,7 @@ def test_the_contracts_hold() -> None:
         ("system/records.py", "import llmpas.system.run", "inside system"),
         # llmpas run and the product's registry import nothing of the experiments
         ("commands/cmd_run.py", "import llmpas.experiments.prompting", "the product imports"),
-        ("catalog.py", "import llmpas.experiments.worlds", "the product imports"),
+        ("system/catalog.py", "import llmpas.experiments.worlds", "the product imports"),
         ("cli.py", "import llmpas.experiments.jobs", "main module imports the experiments"),
         ("commands/cmd_world.py", "import llmpas.worlds.household.plugin", "imports no world"),
     ],

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from llmpas.catalog import oracle_for
 from llmpas.experiments.suite import Verdict, judge, load_task
 from llmpas.experiments.worlds import LoopConfig, run_loop
 from llmpas.language.domain import parse_domain
@@ -15,6 +14,7 @@ from llmpas.language.logic import And, Atom, Not
 from llmpas.reasoning.goals import GoalStatus
 from llmpas.reasoning.truth_oracle import ORACLE
 from llmpas.system.achievable import Makeable, certified
+from llmpas.system.catalog import oracle_for
 from llmpas.system.checks import GoalChecker
 from llmpas.worlds.api import RunOptions
 from llmpas.worlds.household.plugin import WORLD

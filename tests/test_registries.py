@@ -265,9 +265,9 @@ def _readme_row(extension: str) -> tuple[str, ...]:
 
 
 def test_the_readme_lists_what_each_registry_holds() -> None:
-    from llmpas.catalog import worlds
     from llmpas.experiments.benchmarks import benchmark_names
     from llmpas.reasoning.methods import method_names
+    from llmpas.system.catalog import worlds
 
     assert _readme_row("planning algorithm") == registry.algorithm_names()
     assert _readme_row("classical planner") == registry.classical_names()

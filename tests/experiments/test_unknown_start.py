@@ -8,9 +8,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from llmpas.catalog import oracle_for
 from llmpas.experiments.suite import Verdict, judge, load_task, validate_folder
 from llmpas.experiments.worlds import LoopConfig
+from llmpas.system.catalog import oracle_for
 from tests.test_system import clean_blackboard  # noqa: F401 (autouse)
 
 FOLDER = Path(__file__).parents[1] / "data" / "sight" / "unknown-start"

@@ -11,7 +11,6 @@ from pathlib import Path
 
 import pytest
 
-from llmpas.catalog import llm_for
 from llmpas.experiments.jobs import add_llm_argument
 from llmpas.reasoning.backends.registry import (
     BACKENDS,
@@ -23,6 +22,7 @@ from llmpas.reasoning.backends.registry import (
     markdown_table,
 )
 from llmpas.reasoning.llm import LLM
+from llmpas.system.catalog import llm_for
 
 ROOT = Path(__file__).resolve().parents[2]
 

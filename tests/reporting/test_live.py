@@ -315,7 +315,7 @@ def test_a_live_address_outside_the_ports_is_refused() -> None:
 def test_a_world_without_geometry_is_drawn_from_its_places_and_facts() -> None:
     """A session with no scene of its own: its places in a row, the believed objects on them,
     and where the world has a truth, the true ones in the second layer."""
-    from llmpas.catalog import load_world
+    from llmpas.system.catalog import load_world
     from llmpas.worlds.api import RunOptions, SceneGeometry, TrueFacts
 
     with load_world("household").open(HOUSEHOLD, RunOptions()) as session:
@@ -348,8 +348,8 @@ def test_the_scene_is_throttled_and_nothing_else_is_dropped(period: float, tmp_p
     and end (and once at the start); without one, at every tick too. Tree, plan, anomaly and
     LLM messages are the same either way: one per tick that changed the tree, one per anomaly,
     prompt and answer."""
-    from llmpas.catalog import llm_for, load_world
     from llmpas.system import run
+    from llmpas.system.catalog import llm_for, load_world
 
     class Sink(FoxgloveSink):  # the sink, with every tick it was told of
         ticks: list[tuple[int, Any]]
@@ -478,9 +478,9 @@ def test_a_users_world_written_only_against_the_protocol_gets_the_channels(tmp_p
 def test_an_interrupted_run_leaves_a_complete_run_mcap(tmp_path: Path) -> None:
     """Ctrl-C while the LLM is asked: the sink closes run.mcap (its summary written) and its
     last loop message says the run was interrupted."""
-    from llmpas.catalog import load_world
     from llmpas.reasoning.llm import Request, Response
     from llmpas.system import run
+    from llmpas.system.catalog import load_world
 
     class Interrupted:
         name = "interrupted"
@@ -505,8 +505,8 @@ def test_exchanges_not_told_as_they_happened_are_written_once_with_the_verdict(
     """The prompts and answers go out live (``prompted``, ``replied``); any exchange of the
     consultation the sink was not told of (a request that never reached the LLM's wrapper)
     goes out with the verdict, so the LLM channel always holds each exchange once."""
-    from llmpas.catalog import llm_for, load_world
     from llmpas.system import run
+    from llmpas.system.catalog import llm_for, load_world
 
     class Deaf(FoxgloveSink):  # told of no request while it happened
         def prompted(self, index: int, request: Any) -> None:

@@ -54,7 +54,7 @@ class Seen:
 
 
 def _run(observer: Observer | None) -> LoopResult:
-    from llmpas.catalog import llm_for, load_world
+    from llmpas.system.catalog import llm_for, load_world
 
     llm = llm_for("oracle", None, "household")
     return run(load_world("household"), SCENARIO, llm, observer=observer)

@@ -1,7 +1,7 @@
 """A new shipped world is one folder (docs/worlds.md, "Add a shipped world"): a package under
 ``llmpas/worlds/`` whose ``__init__.py`` registers it (``WORLD_ENTRY``), its world and its
 oracle beside it. Built here in a copy of the source tree, with no other file touched, it is
-found by name by the product's registry (:mod:`llmpas.catalog`), named in ``llmpas run``'s
+found by name by the product's registry (:mod:`llmpas.system.catalog`), named in ``llmpas run``'s
 help, and run by ``llmpas run`` with the two recovery methods that ask no model (``oracle``,
 ``replan``); ``llmpas run`` loads nothing of :mod:`llmpas.experiments`.
 
@@ -128,7 +128,7 @@ def test_a_shipped_scenario_name_finds_its_world(tree: Path) -> None:
 
 LISTING = """
 import sys
-from llmpas.catalog import robots, worlds
+from llmpas.system.catalog import robots, worlds
 names = list(worlds()), list(robots())
 heavy = sorted(m for m in sys.modules if m == "pybullet" or m.startswith("rclpy")
                or (m.startswith("llmpas.worlds.") and m.count(".") > 2))

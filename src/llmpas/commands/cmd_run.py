@@ -1,5 +1,5 @@
 """``llmpas run``: the closed loop on a registered world's scenario with an ``--llm`` of the
-product's registry (:mod:`llmpas.catalog`). It imports nothing from :mod:`llmpas.experiments`
+product's registry (:mod:`llmpas.system.catalog`). It imports nothing from :mod:`llmpas.experiments`
 (an import-linter contract), but one module by name: a household suite task file (a scenario
 with a ``[judge]`` table) is read with the suite's reader, :mod:`llmpas.experiments.suite`,
 when one is run."""
@@ -33,7 +33,7 @@ from llmpas.safetext import printable
 def _llm(spec: str, record: str | None, world: str | None = None, method: str = "flp") -> Any:
     """The loop's LLM for a spec of any kind of the backend registry
     (:data:`llmpas.reasoning.backends.registry.KINDS`)."""
-    from llmpas.catalog import llm_for
+    from llmpas.system.catalog import llm_for
 
     try:
         return llm_for(spec, record, world, method)
@@ -44,11 +44,11 @@ def _llm(spec: str, record: str | None, world: str | None = None, method: str = 
 
 
 def _cmd_run(args: argparse.Namespace, console: Console) -> int:
-    from llmpas.catalog import load_world, scenario_arg, site_world
     from llmpas.reasoning.assists import parse_assists
     from llmpas.reasoning.llm import LLMError
     from llmpas.reasoning.methods import MethodConfig
     from llmpas.system import LoopSettings, run, run_once
+    from llmpas.system.catalog import load_world, scenario_arg, site_world
 
     _live_address(args)  # a bad --live is one line before anything is loaded
     site = getattr(args, "site", None)
@@ -121,7 +121,7 @@ def _suite_task(world: str, path: str) -> tuple[Any, str | None]:
     ``bench prompting`` runs it: its scenario, ended by its intent (``[judge] success``), so
     that the same task, seed and LLM give the same rounds in both. Anything else is returned
     as it is (no intent)."""
-    from llmpas.catalog import file_world
+    from llmpas.system.catalog import file_world
 
     reader = file_world()
     if reader is None or world != reader.name or not path.endswith(".toml"):
@@ -228,10 +228,10 @@ def _print_rounds(result: Any, console: Console) -> None:
 
 
 def add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    from llmpas.catalog import scenario_help
     from llmpas.reasoning.assists import PROTOCOLS, Assists
     from llmpas.reasoning.backends.registry import add_llm_argument
     from llmpas.reasoning.methods import DECODINGS, SCORINGS, method_names
+    from llmpas.system.catalog import scenario_help
 
     p = sub.add_parser("run", help="the closed loop: plan, execute, reason about anomalies")
     p.add_argument(

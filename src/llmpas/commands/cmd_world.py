@@ -1,6 +1,6 @@
 """``llmpas execute``, ``llmpas bt`` and ``llmpas robot``: a registered world's scenario planned
 and executed once, its behaviour subtrees, its simulated robot (the worlds by name from
-:mod:`llmpas.catalog`); and the parts ``llmpas run`` shares with them."""
+:mod:`llmpas.system.catalog`); and the parts ``llmpas run`` shares with them."""
 
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ from llmpas.language.errors import LanguageError
 
 def world_name(args: argparse.Namespace) -> str:
     """``--world``, else the registered world that ships the scenario (a file: household)."""
-    from llmpas.catalog import world_of
+    from llmpas.system.catalog import world_of
 
     if args.world:
         return str(args.world)
@@ -75,8 +75,8 @@ def _recorded(out: str | None) -> Iterator[Any]:
 
 
 def _cmd_execute(args: argparse.Namespace, console: Console) -> int:
-    from llmpas.catalog import load_world, scenario_arg
     from llmpas.system import run_once
+    from llmpas.system.catalog import load_world, scenario_arg
 
     name = world_name(args)
     world = load_world(name)
@@ -118,9 +118,9 @@ def _cmd_execute(args: argparse.Namespace, console: Console) -> int:
 
 
 def _cmd_bt(args: argparse.Namespace, console: Console) -> int:
-    from llmpas.catalog import load_world, scenario_arg
     from llmpas.execution.export import render_png, to_ascii, to_btcpp_files
     from llmpas.system import plan
+    from llmpas.system.catalog import load_world, scenario_arg
     from llmpas.worlds.api import RunOptions
 
     name = world_name(args)
@@ -150,8 +150,8 @@ def _cmd_bt(args: argparse.Namespace, console: Console) -> int:
 
 def add_world_option(p: argparse.ArgumentParser) -> None:
     """``--world``: the registered worlds that name themselves in the help
-    (:func:`llmpas.catalog.world_help`), or a user's."""
-    from llmpas.catalog import file_world, world_help
+    (:func:`llmpas.system.catalog.world_help`), or a user's."""
+    from llmpas.system.catalog import file_world, world_help
 
     reader = file_world()
     p.add_argument(
@@ -203,7 +203,7 @@ def web_report(args: argparse.Namespace, console: Console, **about: Any) -> None
 
 def _cmd_robot(args: argparse.Namespace, console: Console) -> int:
     """Serve a simulated robot: the command of the world that owns it (its own parser)."""
-    from llmpas.catalog import robot_command
+    from llmpas.system.catalog import robot_command
 
     return robot_command(args.kind)(args.args)
 

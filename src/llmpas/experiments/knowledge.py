@@ -71,7 +71,7 @@ class Recorded:
 
 def record_job(payload: tuple[str, str]) -> dict[str, Any]:
     """Record one task's first consultation (module level: it may run in another process)."""
-    from llmpas.catalog import load_world
+    from llmpas.system.catalog import load_world
     from llmpas.system.probe import first_consultation
     from llmpas.system.settings import LoopSettings
     from llmpas.worlds.api import RunOptions

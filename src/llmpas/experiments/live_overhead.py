@@ -63,9 +63,9 @@ class _Timed:
 def _once(
     scenario: str, llm: str, folder: Path, sink: bool, period: float | None
 ) -> dict[str, Any]:
-    from llmpas.catalog import llm_for, load_world, world_of
     from llmpas.reporting.live import SCENE_PERIOD, FoxgloveSink
     from llmpas.system import run
+    from llmpas.system.catalog import llm_for, load_world, world_of
 
     world = world_of(scenario)
     mcap = folder / "run.mcap"

@@ -47,7 +47,6 @@ from typing import Any
 
 from rich.console import Console
 
-from llmpas.catalog import oracle_for
 from llmpas.experiments.benchmarks import AllConfig
 from llmpas.experiments.harness import (
     Harnessed,
@@ -110,6 +109,7 @@ from llmpas.reasoning.methods import (
 )
 from llmpas.reasoning.replan import REPLAN, Replan
 from llmpas.system import LLMFor, LoopResult, SweepBudget
+from llmpas.system.catalog import oracle_for
 from llmpas.worlds.api import RunOptions
 
 log = logging.getLogger(__name__)

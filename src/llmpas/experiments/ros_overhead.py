@@ -48,8 +48,8 @@ WORLDS = {  # -> robot profile
 
 
 def _once(label: str, scenario: str, llm: str, site: str = "") -> dict[str, Any]:
-    from llmpas.catalog import llm_for
     from llmpas.experiments.worlds import LoopConfig, run_loop
+    from llmpas.system.catalog import llm_for
     from llmpas.worlds.api import RunOptions
 
     world = "pybullet" if label == "pybullet" else "ros2"

@@ -29,10 +29,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def _main_job(folder: Path, console: Console) -> Path:
     """``llmpas run object-loss --llm oracle --with-replan --out FOLDER/object-loss``, without
     its page (the replan-only run of the same scenario and seed in ``replan-only``)."""
-    from llmpas.catalog import llm_for
     from llmpas.experiments.worlds import run_loop
     from llmpas.files import atomic_write
     from llmpas.reasoning.truth_oracle import ORACLE
+    from llmpas.system.catalog import llm_for
 
     out = folder / "object-loss"
     with console.status("running the main job (object-loss, oracle, and replan only) ..."):

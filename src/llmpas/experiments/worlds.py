@@ -1,4 +1,4 @@
-"""How an experiment runs the closed loop on a registered world (:mod:`llmpas.catalog`, the
+"""How an experiment runs the closed loop on a registered world (:mod:`llmpas.system.catalog`, the
 product's registry, finds the worlds, their oracles and the ``--llm`` specs)."""
 
 from __future__ import annotations
@@ -7,10 +7,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from llmpas.catalog import file_world, llm_for, load_world, world_of
 from llmpas.reasoning.llm import LLM
 from llmpas.reasoning.truth_oracle import ORACLE
 from llmpas.system import LLMFor, LoopResult, LoopSettings, OnRound, run
+from llmpas.system.catalog import file_world, llm_for, load_world, world_of
 from llmpas.worlds.api import RunOptions
 
 

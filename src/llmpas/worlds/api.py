@@ -22,7 +22,8 @@ which lives in the world's folder beside it.
 registers it: a :class:`WorldEntry` named ``WORLD_ENTRY`` (its name, its world and oracle as
 ``module:ATTR``, where it stands in listings, its scenarios for the command line's help). A
 package that serves a simulated robot (``llmpas robot NAME``) registers a :class:`RobotEntry`
-named ``ROBOT_ENTRY``. The registry (:mod:`llmpas.catalog`) finds them; nothing else lists them.
+named ``ROBOT_ENTRY``. The registry (:mod:`llmpas.system.catalog`) finds them; nothing else
+lists them.
 
 
 **One truth judge.** A session whose world has a true state says so as facts

@@ -14,13 +14,13 @@ import pytest
 pytest.importorskip("pybullet")
 pytest.importorskip("ompl")
 
-from llmpas.catalog import llm_for
 from llmpas.cli import main
 from llmpas.execution.world import Detection, Observation
 from llmpas.experiments.worlds import LoopConfig, run_loop
 from llmpas.language.logic import Atom
 from llmpas.reasoning.backends.replay import ReplayBackend
 from llmpas.reasoning.truth_oracle import ORACLE
+from llmpas.system.catalog import llm_for
 from llmpas.worlds.api import RunOptions
 from llmpas.worlds.pybullet.decomposition import covering
 from llmpas.worlds.pybullet.run import scenarios, setup_scene, true_facts

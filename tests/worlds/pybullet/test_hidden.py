@@ -14,11 +14,11 @@ import pytest
 pytest.importorskip("pybullet")
 pytest.importorskip("ompl")
 
-from llmpas.catalog import llm_for
 from llmpas.cli import main
 from llmpas.experiments.worlds import LoopConfig, run_loop
 from llmpas.reasoning.backends.replay import ReplayBackend
 from llmpas.reasoning.truth_oracle import ORACLE
+from llmpas.system.catalog import llm_for
 from llmpas.worlds.api import RunOptions
 
 QUIET = RunOptions(snapshots=False)

@@ -73,7 +73,7 @@ def test_a_site_run_is_done_as_perceived_and_the_truth_agrees(
 
 CLIENT = """
 import sys
-from llmpas.catalog import load_world
+from llmpas.system.catalog import load_world
 import llmpas.cli
 world = load_world("ros2")
 import llmpas.worlds.ros2.site_session
@@ -81,7 +81,7 @@ loaded = [m for m in sys.modules if m.startswith("llmpas.worlds.") or m == "pybu
 scenario = ("llmpas.worlds.pybullet.run", "llmpas.worlds.pybullet.plugin",
             "llmpas.worlds.ros2.session", "pybullet_data")
 # the robot's package itself is read for its registration (ROBOT_ENTRY: names only, by the
-# registry, llmpas.catalog); none of its modules loads
+# registry, llmpas.system.catalog); none of its modules loads
 bad = [m for m in loaded if m in scenario or m.startswith("llmpas.worlds.pybullet_ros2.")]
 print(",".join(bad))
 """

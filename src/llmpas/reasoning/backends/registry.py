@@ -7,7 +7,8 @@ command line offers (:func:`choices`) and of the table in ``docs/llm-part.md``
 a spec of its kind is built. ``oracle`` (a labelled oracle, which reads the world's truth:
 :mod:`llmpas.reasoning.truth_oracle`) and ``replan`` (no LLM: the task restated:
 :mod:`llmpas.reasoning.replan`), the recovery methods that ask no model, have no maker here: the
-product's registry supplies them (:func:`llmpas.catalog.llm_for`), since reasoning knows no world.
+product's registry supplies them (:func:`llmpas.system.catalog.llm_for`), since reasoning knows
+no world.
 
 ``record``: a cassette folder the answers are recorded into (replayed when present). Bad specs
 raise :class:`ValueError` naming the spec; nothing is loaded before the spec is known good.

@@ -12,6 +12,10 @@ An ``--llm`` spec is any kind of the backend registry
 (:data:`~llmpas.reasoning.backends.registry.KINDS`); its two recovery methods that ask no model,
 ``oracle`` (:mod:`llmpas.reasoning.truth_oracle`) and ``replan``
 (:mod:`llmpas.reasoning.replan`), are built here, where the world is known (:func:`llm_for`).
+
+It sits in :mod:`llmpas.system` beside the entry points (:mod:`.run`) it feeds, and like them it
+imports no world: a world is reached by name, as a plug-in (``importlib``), never by an import
+statement (the import-linter contracts hold on the code as written).
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ from llmpas.errors import UsageError
 from llmpas.worlds.api import RobotEntry, World, WorldEntry
 
 if TYPE_CHECKING:  # the loop and the backends load when an LLM is built, not for a listing
-    from llmpas.system import LLMFactory, LLMFor
+    from llmpas.system.backends import LLMFactory, LLMFor
 
 SHIPPED = "llmpas.worlds"
 """The package whose subpackages are the shipped worlds and robots."""
@@ -192,11 +196,11 @@ def llm_for(
     :data:`~llmpas.reasoning.backends.registry.KINDS`), as the loop takes it: a factory of the
     session. ``oracle``: the world's labelled oracle (default: the file world's); ``replan``: no
     reasoning, the session's task restated (in ``method``'s answer form); any other: that
-    backend, :func:`~llmpas.system.fixed`."""
+    backend, :func:`~llmpas.system.backends.fixed`."""
     from llmpas.reasoning.backends.registry import make_backend
     from llmpas.reasoning.replan import REPLAN, Replan
     from llmpas.reasoning.truth_oracle import ORACLE
-    from llmpas.system import as_factory
+    from llmpas.system.backends import as_factory
 
     def oracle(arg: str, rec: str | None) -> LLMFor:
         if rec:
