@@ -147,3 +147,16 @@ def test_the_registry_reads_the_folders_without_loading_a_world() -> None:
     assert out.stdout.strip() == (
         "(['household', 'pybullet', 'tabletop', 'ros2'], ['pybullet']) []"
     ), out.stdout
+
+
+def test_every_registration_names_modules_that_exist() -> None:
+    """A registration names its modules as text (``module:ATTR``, imported when used): a
+    module renamed or moved without its registration fails here, before a run does."""
+    import importlib.util
+
+    from llmpas.system.catalog import robots, worlds
+
+    specs = [s for e in worlds().values() for s in (e.world, e.oracle, e.files) if s]
+    specs += [r.command for r in robots().values()]
+    missing = [s for s in specs if importlib.util.find_spec(s.partition(":")[0]) is None]
+    assert specs and not missing, missing
