@@ -184,14 +184,14 @@ def test_robot_command_is_the_worlds_own_with_one_parser(
     """``llmpas robot pybullet``: the ROS 2 world's registered command parses its options (the
     command line defines none of them); an unknown robot is one line naming the known ones."""
     from llmpas.system.catalog import robots
-    from llmpas.worlds.pybullet_ros2 import command
+    from llmpas.worlds.pybullet_ros2 import robot_command
 
-    assert robots()["pybullet"].command == "llmpas.worlds.pybullet_ros2.command:run"
+    assert robots()["pybullet"].command == "llmpas.worlds.pybullet_ros2.robot_command:run"
     with pytest.raises(SystemExit) as done:
         main(["robot", "pybullet", "--help"])
     assert done.value.code == 0
     shown = capsys.readouterr().out
-    assert shown == command.parser().format_help()  # the world's parser, the only one
+    assert shown == robot_command.parser().format_help()  # the world's parser, the only one
     assert shown.count("--stall") >= 1 and "usage: llmpas robot pybullet" in shown
     assert main(["robot", "nao", "x"]) == 2
     err = capsys.readouterr().err.strip()

@@ -14,7 +14,7 @@ import py_trees
 import pytest
 
 from llmpas.experiments.worlds import run_loop
-from llmpas.reasoning.goals import GoalStatus
+from llmpas.reasoning.goal_reading import GoalStatus
 from llmpas.reasoning.models import DEFAULT_MODEL, model_path
 
 pytestmark = [

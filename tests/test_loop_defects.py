@@ -11,13 +11,13 @@ from llmpas.experiments.suite import Verdict, judge, load_task
 from llmpas.experiments.worlds import LoopConfig, run_loop
 from llmpas.language.domain import parse_domain
 from llmpas.language.logic import And, Atom, Not
-from llmpas.reasoning.goals import GoalStatus
+from llmpas.reasoning.goal_reading import GoalStatus
 from llmpas.reasoning.truth_oracle import ORACLE
 from llmpas.system.achievable import Makeable, certified
 from llmpas.system.catalog import oracle_for
-from llmpas.system.checks import GoalChecker
+from llmpas.system.goal_checks import GoalChecker
 from llmpas.worlds.api import RunOptions
-from llmpas.worlds.household.plugin import WORLD
+from llmpas.worlds.household.household_plugin import WORLD
 from tests.system.test_checks import Planner, parse
 from tests.system.tiny import SEM, Facts, atom, memory
 from tests.test_system import Scripted, clean_blackboard  # noqa: F401 (autouse)

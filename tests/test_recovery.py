@@ -16,8 +16,8 @@ from llmpas.reasoning.methods import Proposal
 from llmpas.reasoning.truth_oracle import ORACLE
 from llmpas.system import LoopResult, LoopSettings, close_loop
 from llmpas.worlds.api import RunOptions
-from llmpas.worlds.household.plugin import WORLD
-from llmpas.worlds.household.values import Placement
+from llmpas.worlds.household.household_plugin import WORLD
+from llmpas.worlds.household.household_values import Placement
 from tests.test_system import Scripted, clean_blackboard  # noqa: F401 (autouse)
 
 DATA = Path(__file__).parent / "data" / "loop"

@@ -16,8 +16,8 @@ from types import MappingProxyType
 import pytest
 
 from llmpas.cli import build_parser, main
-from llmpas.planning import PlannerConfig, registry, solve
-from llmpas.planning.registry import Entry
+from llmpas.planning import PlannerConfig, planner_registry, solve
+from llmpas.planning.planner_registry import Entry
 
 
 def _write_module(folder: Path, name: str, text: str, monkeypatch: pytest.MonkeyPatch) -> None:
@@ -65,8 +65,8 @@ def test_a_new_algorithm_is_one_file_and_one_registry_line(
 ) -> None:
     _write_module(tmp_path, "levels_example", ALGORITHM, monkeypatch)
     line = Entry("levels", "levels_example:plan", "incremental, under another name")
-    table = MappingProxyType({**registry.ALGORITHMS, "levels": line})
-    monkeypatch.setattr(registry, "ALGORITHMS", table)
+    table = MappingProxyType({**planner_registry.ALGORITHMS, "levels": line})
+    monkeypatch.setattr(planner_registry, "ALGORITHMS", table)
 
     assert "levels" in _choices(["plan"], "--algorithm")
     assert "levels" in _choices(["bench", "planning-time"], "--algorithm")
@@ -79,7 +79,7 @@ def test_a_new_algorithm_is_one_file_and_one_registry_line(
 def test_an_unregistered_algorithm_is_a_one_line_usage_error(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    assert "levels" not in registry.algorithm_names()
+    assert "levels" not in planner_registry.algorithm_names()
     with pytest.raises(ValueError, match="unknown algorithm 'levels'; choose one of focused"):
         PlannerConfig(algorithm="levels")
     assert main(["plan", "--example", "tamp2d", "--algorithm", "levels"]) == 2
@@ -111,8 +111,8 @@ def test_a_new_classical_planner_is_one_file_and_one_registry_line(
 ) -> None:
     _write_module(tmp_path, "refuses_example", CLASSICAL, monkeypatch)
     line = Entry("refuses", "refuses_example:make", "finds no plan")
-    table = MappingProxyType({**registry.CLASSICAL_PLANNERS, "refuses": line})
-    monkeypatch.setattr(registry, "CLASSICAL_PLANNERS", table)
+    table = MappingProxyType({**planner_registry.CLASSICAL_PLANNERS, "refuses": line})
+    monkeypatch.setattr(planner_registry, "CLASSICAL_PLANNERS", table)
 
     assert _choices(["plan"], "--classical") == ("fast-downward", "refuses")
     argv = ["plan", "--example", "tamp2d", "--size", "2", "--json"]
@@ -269,8 +269,8 @@ def test_the_readme_lists_what_each_registry_holds() -> None:
     from llmpas.reasoning.methods import method_names
     from llmpas.system.catalog import worlds
 
-    assert _readme_row("planning algorithm") == registry.algorithm_names()
-    assert _readme_row("classical planner") == registry.classical_names()
+    assert _readme_row("planning algorithm") == planner_registry.algorithm_names()
+    assert _readme_row("classical planner") == planner_registry.classical_names()
     assert _readme_row("prompting method") == method_names()
     assert _readme_row("benchmark") == benchmark_names()
     assert _readme_row("world") == tuple(worlds())

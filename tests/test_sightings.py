@@ -9,14 +9,14 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
-from llmpas.execution.anomaly import AnomalyReport
+from llmpas.execution.anomaly_report import AnomalyReport
 from llmpas.experiments.worlds import LoopConfig, run_loop
 from llmpas.reasoning.llm import Request, Response
 from llmpas.reasoning.replan import Replan
 from llmpas.system import LoopResult
 from llmpas.worlds.api import RunOptions
-from llmpas.worlds.pybullet.run import scenarios
-from llmpas.worlds.pybullet.world import Event
+from llmpas.worlds.pybullet.pybullet_robot import Event
+from llmpas.worlds.pybullet.pybullet_scenarios import scenarios
 from tests.test_system import clean_blackboard  # noqa: F401 (autouse)
 
 DATA = Path(__file__).parent / "data" / "sight"

@@ -93,8 +93,8 @@ def test_an_error_keeps_the_rounds_already_run(
 
 def test_the_deadline_stops_the_loop_cleanly_between_steps(tmp_path: Path) -> None:
     from llmpas.system import close_loop
-    from llmpas.worlds.household.decomposition import ExplorationConfig
-    from llmpas.worlds.household.plugin import HouseholdSession, scenario_path
+    from llmpas.worlds.household.household_decomposition import ExplorationConfig
+    from llmpas.worlds.household.household_plugin import HouseholdSession, scenario_path
     from llmpas.worlds.household.scenario import load_scenario
 
     ticks = iter(range(0, 10_000, 10))  # a clock that advances 10 s at every look

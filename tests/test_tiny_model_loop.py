@@ -18,10 +18,10 @@ import py_trees
 import pytest
 
 from llmpas.experiments.worlds import LoopConfig
-from llmpas.reasoning.goals import parse_goals
+from llmpas.reasoning.goal_reading import parse_goals
 from llmpas.system import LoopStatus, close_loop, save_records
-from llmpas.worlds.household.decomposition import ExplorationConfig
-from llmpas.worlds.household.plugin import HouseholdSession, scenario_path
+from llmpas.worlds.household.household_decomposition import ExplorationConfig
+from llmpas.worlds.household.household_plugin import HouseholdSession, scenario_path
 from llmpas.worlds.household.scenario import load_scenario
 
 from .tiny_model import needs_tiny_model, tiny_backend

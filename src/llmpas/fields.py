@@ -2,7 +2,7 @@
 checked, or raises the reader's error with one line ``source: where: message``.
 
 Shared by the household scenario parser (:mod:`llmpas.worlds.household.scenario`) and the task
-files of the anomaly suite (:mod:`llmpas.experiments.suite.tasks`), so that both say the same
+files of the anomaly suite (:mod:`llmpas.experiments.suite.task_files`), so that both say the same
 thing about the same mistake.
 """
 

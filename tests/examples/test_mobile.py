@@ -17,7 +17,9 @@ from llmpas.examples.mobile import (
     make_kitchen,
     make_problem,
 )
-from llmpas.examples.mobile.motion import RRTParams, drivable, traj_free
+from llmpas.examples.mobile.mobile_motion import RRTParams, drivable, traj_free
+from llmpas.examples.mobile.mobile_streams import KinParams
+from llmpas.examples.mobile.mobile_world import placement_area, supported
 from llmpas.examples.mobile.robot import (
     JOINT_LIMITS,
     STEP,
@@ -26,8 +28,6 @@ from llmpas.examples.mobile.robot import (
     fingertips,
     grasp_point,
 )
-from llmpas.examples.mobile.streams import KinParams
-from llmpas.examples.mobile.world import placement_area, supported
 from llmpas.language.problem import Problem
 
 from .support import HandPlan

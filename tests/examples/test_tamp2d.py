@@ -18,7 +18,7 @@ from llmpas.examples.tamp2d import (
     make_world,
     overlap,
 )
-from llmpas.examples.tamp2d.world import GRIP_OFFSET
+from llmpas.examples.tamp2d.tamp2d_world import GRIP_OFFSET
 from llmpas.language.logic import Atom, atoms_of
 from llmpas.language.problem import Problem
 

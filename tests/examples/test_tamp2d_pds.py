@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from llmpas.examples.tamp2d_pds import FAMILIES, STREAM_NAMES, make_problem, make_world
-from llmpas.examples.tamp2d_pds import streams as st
-from llmpas.examples.tamp2d_pds.geometry import (
+from llmpas.examples.tamp2d_pds import pds2d_streams as st
+from llmpas.examples.tamp2d_pds.pds2d_geometry import (
     Conf,
     Grasp,
     Pose,
@@ -20,8 +20,8 @@ from llmpas.examples.tamp2d_pds.geometry import (
     gripper_rect,
     overlaps,
 )
-from llmpas.examples.tamp2d_pds.validate import Invalid, check_geometry, validate
-from llmpas.examples.tamp2d_pds.world import Scene
+from llmpas.examples.tamp2d_pds.pds2d_plan_check import Invalid, check_geometry, validate
+from llmpas.examples.tamp2d_pds.pds2d_world import Scene
 from llmpas.language.logic import And, Atom, Exists, Forall, Formula, Not, Or
 from llmpas.language.semantics import nnf
 from llmpas.planning import PlannerConfig, solve

@@ -13,8 +13,8 @@ import pytest
 from llmpas.execution.context import Belief, Context
 from llmpas.execution.csubbt import SubAction, SubtreeSpec
 from llmpas.execution.executor import ExecStatus, ExecutorConfig, execute
+from llmpas.execution.robot_protocols import Perception, Robot, SkillResult
 from llmpas.execution.space import Dimension
-from llmpas.execution.world import Perception, Robot, SkillResult
 from llmpas.language.logic import Atom
 
 from .toy import TABLE1, ToyWorld, pick_spec

@@ -26,8 +26,8 @@ from llmpas.execution.export import (
     to_btcpp_xml,
     to_dot,
 )
+from llmpas.execution.robot_protocols import SkillResult
 from llmpas.execution.space import Dimension
-from llmpas.execution.world import SkillResult
 from llmpas.language.logic import Atom
 
 from ..system_packages import needs_dot

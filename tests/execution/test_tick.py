@@ -15,8 +15,7 @@ import pytest
 from llmpas.execution.context import Belief, Context
 from llmpas.execution.csubbt import Constraint, SubAction, SubtreeSpec
 from llmpas.execution.executor import ExecStatus, ExecutorConfig, execute
-from llmpas.execution.space import Dimension
-from llmpas.execution.world import (
+from llmpas.execution.robot_protocols import (
     Completed,
     SkillHandle,
     SkillResult,
@@ -24,6 +23,7 @@ from llmpas.execution.world import (
     as_handle,
     finish,
 )
+from llmpas.execution.space import Dimension
 from llmpas.language.logic import Atom
 
 from .toy import ToyWorld

@@ -7,8 +7,8 @@ from typing import Any
 
 from llmpas.execution.context import Context
 from llmpas.execution.csubbt import Constraint, SubAction, SubtreeSpec
+from llmpas.execution.robot_protocols import Detection, Observation, SkillResult
 from llmpas.execution.space import Dimension
-from llmpas.execution.world import Detection, Observation, SkillResult
 from llmpas.language.logic import Atom
 
 TABLE1 = ["t1a", "t1b", "t1c"]

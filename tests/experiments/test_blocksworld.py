@@ -15,8 +15,8 @@ import pytest
 from rich.console import Console
 
 from llmpas.cli import main
+from llmpas.experiments.blocks.blocks_tasks import generated_tasks, read_tasks
 from llmpas.experiments.blocks.planners import Settings, run_method
-from llmpas.experiments.blocks.tasks import generated_tasks, read_tasks
 from llmpas.experiments.blocksworld import BlocksConfig, run_blocksworld
 from llmpas.reasoning.llm import Request, Response
 
@@ -254,7 +254,7 @@ def test_when_the_optimal_search_fails_the_oracle_says_so_and_blames_no_answer(
     """#23: at 10-12 blocks the optimal search hits its limit; the oracle used to answer an
     empty plan, judged "no plan steps found: write one (action block ...) a line"."""
     import llmpas.experiments.blocksworld as bw
-    from llmpas.experiments.blocks.tasks import Reference
+    from llmpas.experiments.blocks.blocks_tasks import Reference
     from llmpas.planning.downward import ClassicalStatus
 
     def out_of_time(task):  # type: ignore[no-untyped-def]
@@ -272,7 +272,7 @@ def test_when_the_optimal_search_fails_the_oracle_says_so_and_blames_no_answer(
 
 def test_no_steps_for_a_goal_that_holds_is_right_and_no_syntax_error() -> None:
     """LLM+P's p01 starts in its goal: an empty answer solves it (it was counted a syntax error)."""
-    from llmpas.experiments.blocks.tasks import Task
+    from llmpas.experiments.blocks.blocks_tasks import Task
 
     text = """(define (problem held) (:domain blocksworld) (:objects b1 b2 b3)
   (:init (handempty) (ontable b1) (on b3 b1) (on b2 b3) (clear b2))

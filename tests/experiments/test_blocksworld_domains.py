@@ -11,16 +11,16 @@ import pytest
 from rich.console import Console
 
 from llmpas.cli import main
-from llmpas.experiments.blocks.planners import Settings, example_for, run_method
-from llmpas.experiments.blocks.plans import Outcome, judge, parse_plan, simulate
-from llmpas.experiments.blocks.roles import SHIPPED_ROLES, BlocksRoles, RolesError, detect_roles
-from llmpas.experiments.blocks.tasks import (
+from llmpas.experiments.blocks.blocks_tasks import (
     TaskError,
     domain,
     read_tasks,
     reference_plan,
     task_words,
 )
+from llmpas.experiments.blocks.planners import Settings, example_for, run_method
+from llmpas.experiments.blocks.plans import Outcome, judge, parse_plan, simulate
+from llmpas.experiments.blocks.roles import SHIPPED_ROLES, BlocksRoles, RolesError, detect_roles
 from llmpas.experiments.blocksworld import BlocksConfig, run_blocksworld
 from llmpas.language.domain import parse_domain
 from llmpas.reasoning.llm import Request, Response

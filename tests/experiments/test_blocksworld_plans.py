@@ -9,6 +9,15 @@ from pathlib import Path
 
 import pytest
 
+from llmpas.experiments.blocks.blocks_tasks import (
+    TaskError,
+    domain,
+    generated_tasks,
+    read_tasks,
+    reference_plan,
+    task_words,
+    towers,
+)
 from llmpas.experiments.blocks.planners import EXAMPLE, EXAMPLE_PLAN, max_steps
 from llmpas.experiments.blocks.plans import (
     Outcome,
@@ -18,15 +27,6 @@ from llmpas.experiments.blocks.plans import (
     parse_plan,
     plan_gbnf,
     simulate,
-)
-from llmpas.experiments.blocks.tasks import (
-    TaskError,
-    domain,
-    generated_tasks,
-    read_tasks,
-    reference_plan,
-    task_words,
-    towers,
 )
 
 from ..tiny_model import needs_tiny_model, sample, tiny_backend

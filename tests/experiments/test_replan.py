@@ -9,13 +9,13 @@ import pytest
 from llmpas.experiments.suite import SUITE_DIR, Verdict, judge, load_task
 from llmpas.experiments.worlds import LoopConfig
 from llmpas.language.logic import Atom, Not
-from llmpas.reasoning.goals import parse_goals
+from llmpas.reasoning.goal_reading import parse_goals
 from llmpas.reasoning.llm import Message, Request
 from llmpas.reasoning.methods import Situation
 from llmpas.reasoning.program import parse_program
 from llmpas.reasoning.replan import FIRST_LOOK, LABEL, REPLAN, Replan, task_literals
-from llmpas.worlds.household.plugin import household_for
-from llmpas.worlds.household.reasoning import PROGRAM_CALLS, vocabulary
+from llmpas.worlds.household.household_plugin import household_for
+from llmpas.worlds.household.household_reasoning import PROGRAM_CALLS, vocabulary
 
 TASK = "(and (On apple bowl) (Heated bread))"
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from llmpas.experiments.prompting import PromptingConfig, loop_config
 from llmpas.planning import PlannerConfig
-from llmpas.worlds.kitchen.session import PLANNER
+from llmpas.worlds.kitchen.kitchen_session import PLANNER
 
 
 def test_the_kitchen_worlds_plan_with_counted_limits() -> None:

@@ -20,7 +20,7 @@ import pytest
 
 from llmpas.cli import main
 from llmpas.experiments.suite import SUITE_DIR
-from llmpas.experiments.suite.tasks import task_files
+from llmpas.experiments.suite.task_files import task_files
 from tests.test_system import clean_blackboard  # noqa: F401 (autouse)
 
 TASKS = sorted(Path(p).stem for p in task_files(SUITE_DIR))

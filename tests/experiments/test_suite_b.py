@@ -12,7 +12,7 @@ import hashlib
 import pytest
 
 from llmpas.experiments.suite import SUITE_DIR, Category, load_task
-from llmpas.experiments.suite.tasks import SUITE_B_DIGEST, SUITE_B_DIR, suite_digest
+from llmpas.experiments.suite.task_files import SUITE_B_DIGEST, SUITE_B_DIR, suite_digest
 
 FILES = sorted(SUITE_B_DIR.glob("*.toml"))
 PLACEHOLDER = 99  # l_gt before validation

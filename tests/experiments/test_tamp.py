@@ -13,8 +13,8 @@ import pytest
 from rich.console import Console
 
 from llmpas.cli import main
-from llmpas.experiments import tamp
-from llmpas.experiments.tamp import REFERENCE_LABEL, Payload, TampBenchConfig, run_tamp
+from llmpas.experiments import tamp_bench
+from llmpas.experiments.tamp_bench import REFERENCE_LABEL, Payload, TampBenchConfig, run_tamp
 
 
 def quiet() -> Console:
@@ -38,7 +38,7 @@ def _fake(solves: set[tuple[str, str]]) -> Any:
     def run(p: Payload) -> dict[str, Any]:
         ok = (p.family, p.mode) in solves
         return {
-            **tamp._failed(p, "solved" if ok else "timeout", "ok" if ok else "no plan"),
+            **tamp_bench._failed(p, "solved" if ok else "timeout", "ok" if ok else "no plan"),
             "valid": ok,
             "cpu": 0.1 * p.size * (1 if p.mode == "deferred" else 10),
         }
@@ -49,7 +49,9 @@ def _fake(solves: set[tuple[str, str]]) -> Any:
 def test_a_mode_that_solves_nothing_is_not_run_at_larger_sizes(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(tamp, "run_job", _fake({("mirror", "deferred"), ("packed", "computed")}))
+    monkeypatch.setattr(
+        tamp_bench, "run_job", _fake({("mirror", "deferred"), ("packed", "computed")})
+    )
     config = TampBenchConfig(sizes=(1, 2, 3), trials=2, out_dir=tmp_path)
     report = run_tamp(config, quiet())
     ran = {(t.family, t.mode, t.size) for t in report.trials}
@@ -58,7 +60,7 @@ def test_a_mode_that_solves_nothing_is_not_run_at_larger_sizes(
     table = (tmp_path / "tamp.md").read_text()
     assert "| mirror | 2 | not run | — | — | 0.20 | — | 2/2 |" in table
     assert REFERENCE_LABEL in table
-    assert tamp.cpu_share(report.trials) == pytest.approx(
+    assert tamp_bench.cpu_share(report.trials) == pytest.approx(
         statistics.median(t.cpu / t.wall for t in report.trials if t.solved)
     )
     assert "Median CPU / wall of the solved trials" in table
@@ -78,7 +80,7 @@ def test_cost_columns_per_quality_and_the_anytime_plot(
         final = {"fast": base, "optimal": 0.9 * base, "anytime": 0.8 * base}[p.quality]
         steps = [[0.1, base], [0.5, final]] if p.quality == "anytime" else [[0.2, final]]
         return {
-            **tamp._failed(p, "solved", "ok"),
+            **tamp_bench._failed(p, "solved", "ok"),
             "valid": True,
             "cpu": 1.0 + p.size,
             "wall": 1.0 + p.size,
@@ -86,7 +88,7 @@ def test_cost_columns_per_quality_and_the_anytime_plot(
             "improvements": json.dumps(steps),
         }
 
-    monkeypatch.setattr(tamp, "run_job", run)
+    monkeypatch.setattr(tamp_bench, "run_job", run)
     config = TampBenchConfig(
         sizes=(1, 2),
         trials=3,
@@ -120,9 +122,9 @@ def test_an_invalid_plan_is_not_counted_as_solved(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     def invalid(p: Payload) -> dict[str, Any]:
-        return {**tamp._failed(p, "solved", "geometry: b1 collides"), "cpu": 0.5}
+        return {**tamp_bench._failed(p, "solved", "geometry: b1 collides"), "cpu": 0.5}
 
-    monkeypatch.setattr(tamp, "run_job", invalid)
+    monkeypatch.setattr(tamp_bench, "run_job", invalid)
     report = run_tamp(TampBenchConfig(sizes=(1,), trials=1, out_dir=tmp_path), quiet())
     assert not any(t.solved for t in report.trials)
     assert "0/1, 1 invalid" in (tmp_path / "tamp.md").read_text()
@@ -153,9 +155,9 @@ def test_a_tiny_real_run_writes_table_plot_and_cache(tmp_path: Path) -> None:
 def test_a_trial_past_its_deadline_is_killed_and_a_failing_one_reported(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    monkeypatch.setattr(tamp, "KILL_GRACE", 0.0)
-    late = tamp.run_job(Payload("mirror", 1, "computed", 0, 0.001, 3072, 1))
+    monkeypatch.setattr(tamp_bench, "KILL_GRACE", 0.0)
+    late = tamp_bench.run_job(Payload("mirror", 1, "computed", 0, 0.001, 3072, 1))
     assert late["status"] == "killed" and not late["valid"]
-    monkeypatch.setattr(tamp, "KILL_GRACE", 30.0)
-    bad = tamp.run_job(Payload("spiral", 1, "computed", 0, 5.0, 3072, 1))
+    monkeypatch.setattr(tamp_bench, "KILL_GRACE", 30.0)
+    bad = tamp_bench.run_job(Payload("spiral", 1, "computed", 0, 5.0, 3072, 1))
     assert bad["status"] == "crashed" and "unknown family" in bad["validation"]

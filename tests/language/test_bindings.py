@@ -18,7 +18,7 @@ from llmpas.language.bindings import (
     function,
     sampler,
 )
-from llmpas.language.errors import BindingError, LanguageError
+from llmpas.language.language_errors import BindingError, LanguageError
 from llmpas.language.streams import parse_streams
 
 SPEC = parse_streams(

@@ -15,7 +15,7 @@ from llmpas.language.domain import (
     parse_domain,
     read_domain,
 )
-from llmpas.language.errors import ModelError, PddlSyntaxError
+from llmpas.language.language_errors import ModelError, PddlSyntaxError
 from llmpas.language.logic import (
     TRUE,
     Atom,

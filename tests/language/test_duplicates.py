@@ -11,7 +11,7 @@ import pytest
 
 from llmpas.cli import main
 from llmpas.language.domain import parse_domain, read_domain
-from llmpas.language.errors import PddlSyntaxError
+from llmpas.language.language_errors import PddlSyntaxError
 
 TWICE = Path(__file__).parent / "data" / "twice"
 

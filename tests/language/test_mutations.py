@@ -13,7 +13,7 @@ import pytest
 
 from llmpas.language.bindings import bind
 from llmpas.language.domain import parse_domain
-from llmpas.language.errors import LanguageError
+from llmpas.language.language_errors import LanguageError
 from llmpas.language.problem import Problem, parse_problem_text
 from llmpas.language.streams import parse_streams
 

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from llmpas.language.domain import parse_domain
-from llmpas.language.errors import PddlSyntaxError
+from llmpas.language.language_errors import PddlSyntaxError
 from llmpas.language.problem import read_problem
 from llmpas.language.sexpr import MAX_DEPTH, parse_all
 from llmpas.planning import PlannerConfig, solve

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from llmpas.language.domain import parse_domain
-from llmpas.language.errors import BindingError, ModelError, PddlSyntaxError
+from llmpas.language.language_errors import BindingError, ModelError, PddlSyntaxError
 from llmpas.language.logic import And, Atom, FuncTerm, Not
 from llmpas.language.problem import (
     Problem,

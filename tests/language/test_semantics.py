@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from llmpas.language.domain import parse_domain
-from llmpas.language.errors import ModelError
+from llmpas.language.language_errors import ModelError
 from llmpas.language.logic import And, Atom, Exists, Forall, FuncTerm, Imply, Not, Or, Param
 from llmpas.language.problem import parse_formula, read_problem
 from llmpas.language.semantics import Semantics, State, ground_atoms, nnf, replay

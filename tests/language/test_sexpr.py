@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from llmpas.language.errors import LanguageError, PddlSyntaxError
+from llmpas.language.language_errors import LanguageError, PddlSyntaxError
 from llmpas.language.sexpr import (
     Pos,
     SList,

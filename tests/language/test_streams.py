@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from llmpas.language.errors import ModelError, PddlSyntaxError
+from llmpas.language.language_errors import ModelError, PddlSyntaxError
 from llmpas.language.logic import Atom
 from llmpas.language.streams import (
     EMPTY_STREAMS,

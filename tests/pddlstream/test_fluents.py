@@ -10,8 +10,8 @@ import pytest
 
 from llmpas.cli import main
 from llmpas.pddlstream import PDDLProblem, from_fn, from_test, solve
+from llmpas.pddlstream.solution_check import validate
 from llmpas.pddlstream.translate import Unsupported
-from llmpas.pddlstream.validate import validate
 
 from .test_runner import SCRIPTS
 

@@ -10,9 +10,9 @@ from llmpas.language.bindings import cost, function, sampler, test
 from llmpas.language.domain import parse_domain
 from llmpas.language.problem import Problem
 from llmpas.language.streams import parse_streams
+from llmpas.pddlstream.solution_check import validate
 from llmpas.pddlstream.solving import Attempt, solution_of
 from llmpas.pddlstream.translate import Translation
-from llmpas.pddlstream.validate import validate
 from llmpas.planning import PlannerConfig, solve
 
 CONFIG = PlannerConfig(defer=False, max_time=60)

@@ -6,7 +6,7 @@ import dataclasses
 
 import numpy as np
 
-from llmpas.pddlstream.validate import validate
+from llmpas.pddlstream.solution_check import validate
 
 
 def solved(load_script):

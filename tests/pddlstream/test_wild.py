@@ -14,8 +14,8 @@ import pytest
 
 from llmpas.errors import PlannerError
 from llmpas.pddlstream import And, Exists, PDDLProblem, from_fn, from_list_fn, solve
+from llmpas.pddlstream.solution_check import validate
 from llmpas.pddlstream.solving import SolveContext
-from llmpas.pddlstream.validate import validate
 from llmpas.pddlstream.wrappers import WildOutput
 
 DOMAIN = """

@@ -13,7 +13,7 @@ import pytest
 
 from llmpas.language.bindings import cost, sampler
 from llmpas.language.domain import parse_domain
-from llmpas.language.errors import BindingError
+from llmpas.language.language_errors import BindingError
 from llmpas.language.logic import Atom, FuncTerm
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics, replay

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from llmpas.reasoning.goals import GoalStatus
+from llmpas.reasoning.goal_reading import GoalStatus
 from llmpas.reasoning.tables import Vocabulary
 
 OBJECTS = ("cube", "black_cube", "bowl", "apple", "mug")

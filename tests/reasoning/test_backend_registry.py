@@ -1,5 +1,6 @@
 """LLM backends built in one place: the registry of ``--llm`` kinds
-(:data:`llmpas.reasoning.backends.registry.KINDS`) is the single source of the command line's
+(:data:`llmpas.reasoning.backends.backend_registry.KINDS`) is the single source of the command
+line's
 choices and of the docs' table, and it loads nothing before a spec of a kind is built."""
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from llmpas.experiments.jobs import add_llm_argument
-from llmpas.reasoning.backends.registry import (
+from llmpas.reasoning.backends.backend_registry import (
     BACKENDS,
     KINDS,
     SPECS,
@@ -66,7 +67,7 @@ def test_a_spec_of_no_kind_names_the_kinds() -> None:
 def test_no_backend_library_is_loaded_before_a_spec_of_its_kind_is_built(tmp_path: Path) -> None:
     code = (
         "import sys\n"
-        "from llmpas.reasoning.backends.registry import choices, make_backend\n"
+        "from llmpas.reasoning.backends.backend_registry import choices, make_backend\n"
         "choices()\n"
         f"make_backend('replay:{tmp_path}')\n"
         "print(sorted(m for m in ('llama_cpp', 'openai', 'httpx') if m in sys.modules))\n"

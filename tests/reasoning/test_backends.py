@@ -393,7 +393,7 @@ def test_llamacpp_an_invalid_grammar_is_an_llm_error(grammar: str) -> None:
 
 
 def test_the_http_deadline_comes_from_llmpas_llm_timeout(monkeypatch: pytest.MonkeyPatch) -> None:
-    from llmpas.reasoning.backends.registry import make_backend
+    from llmpas.reasoning.backends.backend_registry import make_backend
 
     monkeypatch.setenv("OPENAI_API_KEY", "sk-test")
     monkeypatch.delenv("LLMPAS_LLM_TIMEOUT", raising=False)

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from llmpas.language.logic import Atom, Not
-from llmpas.reasoning.goals import (
+from llmpas.reasoning.goal_reading import (
     LOOP_STATUSES,
     MAX_CHARS,
     MAX_ERRORS,

@@ -12,7 +12,7 @@ from typing import Any
 import pytest
 
 from llmpas.language.logic import Atom, Not
-from llmpas.reasoning.goals import GoalStatus, Literal, parse_goals
+from llmpas.reasoning.goal_reading import GoalStatus, Literal, parse_goals
 from llmpas.reasoning.grammar import gbnf, json_schema
 from llmpas.reasoning.tables import Vocabulary
 
@@ -285,7 +285,7 @@ def test_answers_with_a_reasoning_line_parse_to_their_goals() -> None:
 def test_every_skill_call_the_grammar_admits_parses_to_its_effect() -> None:
     from llmpas.reasoning.grammar import skill_gbnf
     from llmpas.reasoning.program import parse_program
-    from llmpas.worlds.household.reasoning import PROGRAM_CALLS
+    from llmpas.worlds.household.household_reasoning import PROGRAM_CALLS
 
     grammar = skill_gbnf(PROGRAM_CALLS, HOUSEHOLD, reasoning=80)
     head, reason, rest = grammar.split("\n", 2)
@@ -346,7 +346,7 @@ def test_llama_cpp_decodes_only_what_the_goal_grammar_admits(reasoning: int) -> 
 def test_llama_cpp_decodes_only_skill_calls_the_skill_grammar_admits() -> None:
     from llmpas.reasoning.grammar import skill_gbnf
     from llmpas.reasoning.program import parse_program
-    from llmpas.worlds.household.reasoning import PROGRAM_CALLS
+    from llmpas.worlds.household.household_reasoning import PROGRAM_CALLS
 
     grammar = skill_gbnf(PROGRAM_CALLS, HOUSEHOLD, reasoning=60)
     calls = language(read_grammar(grammar.split("\n", 2)[2]), ("ref", "call"))

@@ -9,7 +9,7 @@ from importlib import resources
 import pytest
 
 from llmpas.language.logic import Atom
-from llmpas.reasoning.goals import GoalParse, GoalStatus, Vocabulary
+from llmpas.reasoning.goal_reading import GoalParse, GoalStatus, Vocabulary
 from llmpas.reasoning.llm import Request, Response
 from llmpas.reasoning.methods import (
     METHODS,

@@ -7,11 +7,11 @@ from pathlib import Path
 import pytest
 
 from llmpas.language.logic import Atom, Not
-from llmpas.reasoning.goals import GoalStatus
+from llmpas.reasoning.goal_reading import GoalStatus
 from llmpas.reasoning.program import parse_program
+from llmpas.worlds.household.household_problem import Household
+from llmpas.worlds.household.household_reasoning import PROGRAM_CALLS, vocabulary
 from llmpas.worlds.household.layout import default_objects, kitchen
-from llmpas.worlds.household.problem import Household
-from llmpas.worlds.household.reasoning import PROGRAM_CALLS, vocabulary
 
 VOCAB = vocabulary(Household(kitchen(), default_objects()))
 

@@ -6,7 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
-from llmpas.reporting.command import after_run, public_llm
+from llmpas.reporting.report_command import after_run, public_llm
 
 
 def test_credentials_in_an_llm_url_are_not_written_down() -> None:

@@ -9,7 +9,7 @@ from typing import Any
 
 from llmpas.reporting.difference import difference
 from llmpas.reporting.page import render
-from llmpas.reporting.record import read_run
+from llmpas.reporting.run_folder import read_run
 
 
 def _round(goal: str, status: str, goals: list[str] | None = None, ok: bool = True) -> dict:

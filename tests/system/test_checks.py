@@ -1,4 +1,4 @@
-"""The checks of the LLM's goals (:class:`llmpas.system.checks.GoalChecker`), without a world:
+"""The checks of the LLM's goals (:class:`llmpas.system.goal_checks.GoalChecker`), without a world:
 a tiny search memory, a belief of a few facts and a planner that answers from a table."""
 
 from __future__ import annotations
@@ -11,9 +11,9 @@ from llmpas.language.logic import And, Formula, Not
 from llmpas.planning import PlanResult, PlanStatus
 from llmpas.planning.result import Plan, PlanStats
 from llmpas.reasoning.assists import Assists
-from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal
+from llmpas.reasoning.goal_reading import GoalParse, GoalStatus, Literal
 from llmpas.reasoning.methods import Check
-from llmpas.system.checks import GoalChecker
+from llmpas.system.goal_checks import GoalChecker
 from tests.system.tiny import SEM, Facts, atom, failed_look, memory
 
 

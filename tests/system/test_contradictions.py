@@ -12,8 +12,8 @@ from llmpas.language.domain import read_domain
 from llmpas.language.logic import And, Atom, Not
 from llmpas.language.streams import read_streams
 from llmpas.planning.invariants import Invariants
-from llmpas.reasoning.goals import GoalParse, GoalStatus
-from llmpas.system.checks import GoalChecker
+from llmpas.reasoning.goal_reading import GoalParse, GoalStatus
+from llmpas.system.goal_checks import GoalChecker
 from llmpas.system.recovery import Stages, kept_goal
 from tests.system.tiny import SEM, Facts, memory
 

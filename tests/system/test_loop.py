@@ -11,7 +11,7 @@ import pytest
 from llmpas.reasoning.llm import LLM, LLMError, Request, Response
 from llmpas.system import LoopSettings, as_factory, close_loop, fixed
 from llmpas.worlds.api import RunOptions
-from llmpas.worlds.household.plugin import WORLD
+from llmpas.worlds.household.household_plugin import WORLD
 
 
 class Answers:

@@ -1,17 +1,18 @@
 """When the loop plans an LLM's goals before the task
-(:func:`llmpas.system.anomaly.repeats_failure`): the joint plan repeats the step whose failure
+(:func:`llmpas.system.anomaly_memory.repeats_failure`): the joint plan repeats the step whose
+failure
 is the anomaly and nothing the robot believes says why. A tiny domain of a bowl a lid may
 cover; no simulator, no planner."""
 
 from __future__ import annotations
 
-from llmpas.execution.anomaly import AnomalyReport
+from llmpas.execution.anomaly_report import AnomalyReport
 from llmpas.language.domain import parse_domain
 from llmpas.language.logic import Atom, Formula, Not
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics
 from llmpas.planning import Plan, PlanStep
-from llmpas.system.anomaly import repeats_failure, same_objects
+from llmpas.system.anomaly_memory import repeats_failure, same_objects
 
 DOMAIN = parse_domain(
     """(define (domain lidded)

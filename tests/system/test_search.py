@@ -1,4 +1,4 @@
-"""The search memory (:class:`llmpas.system.search.SearchMemory`) on a tiny in-memory search
+"""The search memory (:class:`llmpas.system.search_memory.SearchMemory`) on a tiny in-memory search
 model: what was searched for a lost object, what is left, and what the prompt, the grammar and
 the validator read of it."""
 

@@ -20,7 +20,7 @@ from llmpas.language.sexpr import SExpr, SList, parse_all
 from llmpas.reasoning.llm import LLMError, Request, Response
 from llmpas.system import LoopResult, LoopSettings, LoopStatus, judged, loop_markdown, run, truth
 from llmpas.worlds.api import RunOptions, Session, TrueFacts, holds
-from llmpas.worlds.household.plugin import WORLD, HouseholdSession
+from llmpas.worlds.household.household_plugin import WORLD, HouseholdSession
 from llmpas.worlds.household.state import TrueState, true_facts
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "loop"

@@ -6,11 +6,11 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from llmpas.execution.anomaly import AnomalyReport
+from llmpas.execution.anomaly_report import AnomalyReport
 from llmpas.language.domain import parse_domain
 from llmpas.language.logic import And, Atom, Formula
 from llmpas.language.semantics import Semantics
-from llmpas.system.search import SearchMemory
+from llmpas.system.search_memory import SearchMemory
 
 DOMAIN = parse_domain(
     """(define (domain tiny)

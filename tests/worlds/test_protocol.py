@@ -18,12 +18,12 @@ from typing import Any
 import py_trees
 import pytest
 
-from llmpas.execution.anomaly import AnomalyReport
+from llmpas.execution.anomaly_report import AnomalyReport
 from llmpas.execution.context import Belief, Context
 from llmpas.execution.csubbt import Constraint, SubAction, SubtreeSpec, Values
 from llmpas.execution.executor import ExecutorConfig
 from llmpas.execution.plan_builder import PlanBuilder, Recipe
-from llmpas.execution.world import SkillResult
+from llmpas.execution.robot_protocols import SkillResult
 from llmpas.language.domain import Domain, parse_domain
 from llmpas.language.logic import Atom, Formula
 from llmpas.language.problem import Problem

@@ -11,7 +11,7 @@ from rich.console import Console
 
 from llmpas.errors import ExitCode, LlmpasError, PlannerError, UsageError
 from llmpas.options import positive_float, seed
-from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, registry
+from llmpas.planning import PlannerConfig, PlanResult, PlanStatus, planner_registry
 from llmpas.planning.quality import DEFAULT_QUALITY, QUALITIES
 
 Handler = Callable[[argparse.Namespace, Console], int]
@@ -29,15 +29,15 @@ class CliError(UsageError):
 def add_planner_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--algorithm",
-        choices=registry.algorithm_names(),
-        default=registry.DEFAULT_ALGORITHM,
+        choices=planner_registry.algorithm_names(),
+        default=planner_registry.DEFAULT_ALGORITHM,
         help="the planning algorithm: "
-        + "; ".join(f"{e.name}: {e.description}" for e in registry.ALGORITHMS.values()),
+        + "; ".join(f"{e.name}: {e.description}" for e in planner_registry.ALGORITHMS.values()),
     )
     p.add_argument(
         "--classical",
-        choices=registry.classical_names(),
-        default=registry.DEFAULT_CLASSICAL,
+        choices=planner_registry.classical_names(),
+        default=planner_registry.DEFAULT_CLASSICAL,
         help="the classical planner every search runs on",
     )
     p.add_argument(

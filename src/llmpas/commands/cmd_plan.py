@@ -21,7 +21,7 @@ from llmpas.commands.cmd_common import (
 )
 from llmpas.errors import ExitCode, InputError, PlannerError
 from llmpas.files import atomic_write
-from llmpas.language.errors import BindingError
+from llmpas.language.language_errors import BindingError
 from llmpas.language.problem import Problem, read_problem
 from llmpas.limits import time_limit
 from llmpas.options import MAX_EXAMPLE_SIZE, bounded_int

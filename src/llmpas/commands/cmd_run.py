@@ -32,7 +32,7 @@ from llmpas.safetext import printable
 
 def _llm(spec: str, record: str | None, world: str | None = None, method: str = "flp") -> Any:
     """The loop's LLM for a spec of any kind of the backend registry
-    (:data:`llmpas.reasoning.backends.registry.KINDS`)."""
+    (:data:`llmpas.reasoning.backends.backend_registry.KINDS`)."""
     from llmpas.system.catalog import llm_for
 
     try:
@@ -229,7 +229,7 @@ def _print_rounds(result: Any, console: Console) -> None:
 
 def add_run(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     from llmpas.reasoning.assists import PROTOCOLS, Assists
-    from llmpas.reasoning.backends.registry import add_llm_argument
+    from llmpas.reasoning.backends.backend_registry import add_llm_argument
     from llmpas.reasoning.methods import DECODINGS, SCORINGS, method_names
     from llmpas.system.catalog import scenario_help
 

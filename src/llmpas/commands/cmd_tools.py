@@ -91,11 +91,11 @@ def add_doctor(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None
 
 
 def add_report(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    from llmpas.reporting import command
+    from llmpas.reporting import report_command
 
     p = sub.add_parser("report", help="(re)build a run folder's index.html (web report)")
-    command.add_arguments(p)
-    p.set_defaults(handler=one_line_errors(command.command))
+    report_command.add_arguments(p)
+    p.set_defaults(handler=one_line_errors(report_command.command))
 
 
 __all__ = ["add_doctor", "add_model", "add_report"]

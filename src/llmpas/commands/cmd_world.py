@@ -23,7 +23,7 @@ from llmpas.commands.cmd_common import (
 )
 from llmpas.errors import InputError, UsageError
 from llmpas.files import atomic_write
-from llmpas.language.errors import LanguageError
+from llmpas.language.language_errors import LanguageError
 
 
 def world_name(args: argparse.Namespace) -> str:
@@ -196,7 +196,7 @@ def belief_and_truth(result: Any, console: Console) -> None:
 
 def web_report(args: argparse.Namespace, console: Console, **about: Any) -> None:
     """``index.html`` in the ``--out`` folder (llmpas.reporting)."""
-    from llmpas.reporting.command import after_run
+    from llmpas.reporting.report_command import after_run
 
     after_run(args, lambda s: console.print(s, highlight=False), **about)
 

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from llmpas.execution.world import Observation, Perception, Robot
+from llmpas.execution.robot_protocols import Observation, Perception, Robot
 from llmpas.language.logic import Atom
 
 

@@ -14,7 +14,7 @@ Before a sub-action runs, each of its constraints is checked against what the ro
 and the parameters drawn from the constraint space. When a constraint or a skill fails, the
 ``Explore`` decorator backtracks in the space (resampling the parameters the failure depends on)
 and restarts the sequence; only when the space is exhausted does it fail, leaving a structured
-:class:`~llmpas.execution.anomaly.AnomalyReport` on the blackboard. Nodes follow py_trees'
+:class:`~llmpas.execution.anomaly_report.AnomalyReport` on the blackboard. Nodes follow py_trees'
 lifecycle (``initialise``/``update``/``terminate``) and share data through a blackboard namespace
 of their own subtree.
 """
@@ -29,10 +29,10 @@ from typing import Any
 import py_trees
 from py_trees.common import Access, Status
 
-from llmpas.execution.anomaly import AnomalyReport, Failure
+from llmpas.execution.anomaly_report import AnomalyReport, Failure
 from llmpas.execution.context import Context
+from llmpas.execution.robot_protocols import Outcome, SkillHandle, as_handle
 from llmpas.execution.space import ConstraintSpace, Dimension, Exhausted
-from llmpas.execution.world import Outcome, SkillHandle, as_handle
 from llmpas.language.logic import Atom, Not
 
 log = logging.getLogger(__name__)
@@ -65,7 +65,7 @@ class SubAction:
     """An atomic sub-action: constraints, then a skill. A failed skill counts as a failure of
     ``on_failure`` (its atom and culprits go to the report).
 
-    The skill returns a result or a handle (:mod:`llmpas.execution.world`); while it runs,
+    The skill returns a result or a handle (:mod:`llmpas.execution.robot_protocols`); while it runs,
     every tick polls it and checks the ``guards`` (say: the object to grasp is still seen).
     A guard that fails cancels the skill and fails the sub-action with that guard's reason
     (its culprits are resampled, like a constraint's)."""

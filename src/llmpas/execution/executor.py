@@ -24,7 +24,7 @@ from typing import Any
 import py_trees
 from py_trees.common import Status
 
-from llmpas.execution.anomaly import AnomalyReport
+from llmpas.execution.anomaly_report import AnomalyReport
 from llmpas.execution.context import Context, Event
 from llmpas.execution.csubbt import Explore, SubtreeSpec, build_subtree
 from llmpas.files import atomic_write

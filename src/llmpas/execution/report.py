@@ -16,7 +16,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from llmpas.execution.anomaly import AnomalyReport
+from llmpas.execution.anomaly_report import AnomalyReport
 from llmpas.execution.csubbt import SubtreeSpec
 from llmpas.execution.executor import Episode
 from llmpas.execution.export import to_btcpp_files

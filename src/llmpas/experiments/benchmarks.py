@@ -30,16 +30,16 @@ from typing import Protocol, runtime_checkable
 from rich.console import Console
 
 from llmpas.experiments.jobs import ExecutorSpec
-from llmpas.reasoning.backends.registry import BACKENDS, choices
+from llmpas.reasoning.backends.backend_registry import BACKENDS, choices
 from llmpas.reasoning.truth_oracle import ORACLE
 
 #: The benchmarks, in the order ``llmpas bench all`` runs them: data check, planner, executor,
 #: reasoner, then what ``bench all`` leaves out.
 BENCHMARKS: Mapping[str, str] = MappingProxyType(
     {
-        "validate-data": "llmpas.experiments.suite.validate:BENCHMARK",
+        "validate-data": "llmpas.experiments.suite.validate_data:BENCHMARK",
         "planning-time": "llmpas.experiments.planning_time:BENCHMARK",
-        "tamp": "llmpas.experiments.tamp:BENCHMARK",
+        "tamp": "llmpas.experiments.tamp_bench:BENCHMARK",
         "pddlstream": "llmpas.experiments.pddlstream_bench:BENCHMARK",
         "perturbation": "llmpas.experiments.perturbation:BENCHMARK",
         "prompting": "llmpas.experiments.prompting:BENCHMARK",

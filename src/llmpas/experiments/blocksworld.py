@@ -27,6 +27,14 @@ from typing import Any
 from rich.console import Console
 
 from llmpas.experiments.benchmarks import AllConfig
+from llmpas.experiments.blocks.blocks_tasks import (
+    OPTIMAL_SEARCH,
+    Task,
+    domain_text,
+    generated_tasks,
+    read_tasks,
+    reference_plan,
+)
 from llmpas.experiments.blocks.planners import (
     DECODINGS,
     METHODS,
@@ -37,14 +45,6 @@ from llmpas.experiments.blocks.planners import (
     run_method,
 )
 from llmpas.experiments.blocks.plans import Outcome, Step
-from llmpas.experiments.blocks.tasks import (
-    OPTIMAL_SEARCH,
-    Task,
-    domain_text,
-    generated_tasks,
-    read_tasks,
-    reference_plan,
-)
 from llmpas.experiments.harness import Harnessed, Shared, SharedOptions, rows_of, run_trials
 from llmpas.experiments.jobs import (
     ExecutorSpec,
@@ -56,7 +56,7 @@ from llmpas.experiments.jobs import (
 )
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.planning.downward import ClassicalStatus
-from llmpas.reasoning.backends.registry import BACKENDS, choices
+from llmpas.reasoning.backends.backend_registry import BACKENDS, choices
 from llmpas.reasoning.llm import LLM
 from llmpas.reasoning.methods import template
 

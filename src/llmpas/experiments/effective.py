@@ -26,7 +26,7 @@ from __future__ import annotations
 from collections.abc import Collection, Iterable, Sequence
 
 from llmpas.language.logic import Atom, Formula, Not
-from llmpas.reasoning.goals import GoalStatus, Literal, parse_goals
+from llmpas.reasoning.goal_reading import GoalStatus, Literal, parse_goals
 from llmpas.reasoning.tables import Vocabulary
 
 

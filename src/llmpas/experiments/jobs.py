@@ -44,7 +44,7 @@ from rich.progress import (
 )
 
 from llmpas.files import atomic_write
-from llmpas.reasoning.backends.registry import add_llm_argument
+from llmpas.reasoning.backends.backend_registry import add_llm_argument
 from llmpas.reasoning.replan import REPLAN
 from llmpas.reasoning.truth_oracle import ORACLE
 
@@ -90,7 +90,7 @@ def llm_resources(spec: str) -> dict[str, float]:
 def backend(spec: str, record: str | None = None) -> Any:
     """The LLM backend for a ``--llm`` spec, built once per process (a worker loads a local model
     once, not per job). ValueError for a bad spec."""
-    from llmpas.reasoning.backends.registry import make_backend
+    from llmpas.reasoning.backends.backend_registry import make_backend
 
     return make_backend(spec, record)
 

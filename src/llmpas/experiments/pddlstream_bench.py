@@ -10,7 +10,8 @@ with its arguments (``--instance "pybullet/tamp/run.py -teleport -n 4"``, a path
 Each trial is one process: ``llmpas pddlstream --seed S --summary F SCRIPT ARGS`` (Python's and
 numpy's global generators seeded with ``S`` before the script runs; a script that seeds them
 itself overrides it). Per trial: solved (some ``solve`` call returned a plan), validated (every
-plan returned replays: :mod:`llmpas.pddlstream.validate`), length and cost of the last plan, and
+plan returned replays: :mod:`llmpas.pddlstream.solution_check`), length and cost of the last
+plan, and
 the CPU seconds of the whole process and of the processes it waited for (Fast Downward's
 searches), from ``wait4``; a process that outlives ``--timeout`` is killed (its CPU up to then
 counts, and it is unsolved).

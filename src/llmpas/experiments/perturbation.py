@@ -34,8 +34,8 @@ from llmpas.options import seed as seed_option
 from llmpas.planning import PlannerConfig
 from llmpas.system import run_once
 from llmpas.worlds.api import RunOptions
-from llmpas.worlds.household.decomposition import ExplorationConfig
-from llmpas.worlds.household.plugin import HouseholdPlugin
+from llmpas.worlds.household.household_decomposition import ExplorationConfig
+from llmpas.worlds.household.household_plugin import HouseholdPlugin
 from llmpas.worlds.household.scenario import Scenario
 
 MODES = ("csubbt", "flat")

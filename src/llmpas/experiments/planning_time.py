@@ -37,7 +37,7 @@ from llmpas.experiments.jobs import (
 )
 from llmpas.files import atomic_write, save_figure, write_csv
 from llmpas.options import MAX_EXAMPLE_SIZE, bounded_int, positive_float, positive_int
-from llmpas.planning import PlannerConfig, registry, solve
+from llmpas.planning import PlannerConfig, planner_registry, solve
 from llmpas.planning.quality import DEFAULT_QUALITY, QUALITIES
 
 log = logging.getLogger(__name__)
@@ -53,8 +53,8 @@ class BenchConfig:
     max_time: float = 60.0
     sizes: tuple[int, ...] | None = None  # None: each example's own sizes
     out_dir: Path = Path("results/planning-time")
-    algorithm: str = "focused"  # PlannerConfig.algorithm (llmpas.planning.registry)
-    classical: str = "fast-downward"  # PlannerConfig.classical (llmpas.planning.registry)
+    algorithm: str = "focused"  # PlannerConfig.algorithm (llmpas.planning.planner_registry)
+    classical: str = "fast-downward"  # PlannerConfig.classical (llmpas.planning.planner_registry)
     quality: str = "fast"  # PlannerConfig.quality
     jobs: int = 1  # parallel processes (> 1: contended timings)
     # where the trials run (local: ``jobs`` processes)
@@ -353,10 +353,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--quality", choices=tuple(QUALITIES), default=DEFAULT_QUALITY, help="plan quality"
     )
     p.add_argument(
-        "--algorithm", choices=registry.algorithm_names(), default=registry.DEFAULT_ALGORITHM
+        "--algorithm",
+        choices=planner_registry.algorithm_names(),
+        default=planner_registry.DEFAULT_ALGORITHM,
     )
     p.add_argument(
-        "--classical", choices=registry.classical_names(), default=registry.DEFAULT_CLASSICAL
+        "--classical",
+        choices=planner_registry.classical_names(),
+        default=planner_registry.DEFAULT_CLASSICAL,
     )
 
 

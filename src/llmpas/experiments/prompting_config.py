@@ -16,7 +16,7 @@ from llmpas.experiments.suite import (
 )
 from llmpas.experiments.worlds import LoopConfig
 from llmpas.reasoning.assists import PROTOCOLS, Assists, ablation, parse_assists
-from llmpas.reasoning.backends.registry import BACKENDS, choices
+from llmpas.reasoning.backends.backend_registry import BACKENDS, choices
 from llmpas.reasoning.methods import (
     DECODINGS,
     METHODS,

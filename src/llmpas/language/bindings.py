@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from llmpas.language.errors import BindingError
+from llmpas.language.language_errors import BindingError
 from llmpas.language.logic import Atom
 from llmpas.language.streams import FunctionSchema, StreamSchema, StreamSpec
 

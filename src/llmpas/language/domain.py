@@ -16,7 +16,7 @@ from types import MappingProxyType
 from typing import Any
 
 from llmpas.inputs import PDDL_LIMIT, read_text
-from llmpas.language.errors import ModelError
+from llmpas.language.language_errors import ModelError
 from llmpas.language.logic import (
     FALSE,
     TRUE,

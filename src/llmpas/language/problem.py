@@ -14,7 +14,7 @@ import numpy as np
 from llmpas.inputs import PDDL_LIMIT, read_text
 from llmpas.language.bindings import BoundFunction, BoundStream, StreamInfo, bind
 from llmpas.language.domain import Domain, read_domain, reader_for_formulas, typed_names
-from llmpas.language.errors import ModelError
+from llmpas.language.language_errors import ModelError
 from llmpas.language.logic import (
     And,
     Atom,

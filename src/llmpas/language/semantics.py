@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from operator import attrgetter
 
 from llmpas.language.domain import Action, Derived, Domain
-from llmpas.language.errors import ModelError
+from llmpas.language.language_errors import ModelError
 from llmpas.language.logic import (
     And,
     Atom,

@@ -10,7 +10,7 @@ import re
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
-from llmpas.language.errors import PddlSyntaxError
+from llmpas.language.language_errors import PddlSyntaxError
 
 
 @dataclass(frozen=True, slots=True)

@@ -25,7 +25,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from llmpas.inputs import PDDL_LIMIT, read_text
-from llmpas.language.errors import ModelError
+from llmpas.language.language_errors import ModelError
 from llmpas.language.logic import Atom, conjuncts
 from llmpas.language.sexpr import (
     Pos,

@@ -25,7 +25,7 @@ from llmpas.pddlstream.expressions import (
     print_solution,
     str_from_object,
 )
-from llmpas.pddlstream.search import solve_from_pddl
+from llmpas.pddlstream.pddl_solve import solve_from_pddl
 from llmpas.pddlstream.solving import (
     create_parser,
     solve,

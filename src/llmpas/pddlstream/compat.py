@@ -13,7 +13,7 @@ import types
 from collections.abc import Callable, Mapping
 from typing import Any, NamedTuple
 
-from llmpas.pddlstream import expressions, search, solving, utils, wrappers
+from llmpas.pddlstream import expressions, pddl_solve, solving, utils, wrappers
 from llmpas.pddlstream.expressions import INF, DurativeAction
 
 
@@ -91,7 +91,7 @@ _TABLE: Mapping[str, tuple[tuple[types.ModuleType, ...], Mapping[str, Any]]] = {
     "pddlstream.algorithms.focused": ((solving,), {}),
     "pddlstream.algorithms.incremental": ((solving,), {}),
     "pddlstream.algorithms.serialized": ((solving,), {}),
-    "pddlstream.algorithms.search": ((search,), {}),
+    "pddlstream.algorithms.search": ((pddl_solve,), {}),
     "pddlstream.algorithms.common": ((), {}),  # SOLUTIONS: a fresh list per run
     "pddlstream.algorithms.constraints": ((), {"PlanConstraints": PlanConstraints, "WILD": WILD}),
     "pddlstream.algorithms.downward": (

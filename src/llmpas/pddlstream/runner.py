@@ -6,7 +6,7 @@ imported: a real installation is never shadowed). The script runs as ``python -m
 from the top of its package (a script inside ``examples/continuous_tamp/`` with
 ``__init__.py`` files up to ``examples/`` runs as ``examples.continuous_tamp.run`` with the
 folder above ``examples/`` on ``sys.path``), or as a plain script. Every call of ``solve`` is
-recorded and its plan validated by replay (:mod:`llmpas.pddlstream.validate`).
+recorded and its plan validated by replay (:mod:`llmpas.pddlstream.solution_check`).
 """
 
 from __future__ import annotations
@@ -26,9 +26,9 @@ from pathlib import Path
 
 from llmpas.errors import ExitCode, InputError, LlmpasError, UsageError
 from llmpas.pddlstream.compat import MODULE_NAMES, build_modules
+from llmpas.pddlstream.solution_check import Validation, validate
 from llmpas.pddlstream.solving import Attempt, SolveContext
 from llmpas.pddlstream.translate import Unsupported
-from llmpas.pddlstream.validate import Validation, validate
 
 log = logging.getLogger(__name__)
 

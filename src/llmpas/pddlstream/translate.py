@@ -23,7 +23,7 @@ from llmpas.errors import InputError
 from llmpas.inputs import PDDL_LIMIT, read_text
 from llmpas.language.bindings import Implementation, Kind, StreamInfo, bind
 from llmpas.language.domain import Domain, Signature, parse_domain
-from llmpas.language.errors import BindingError, ModelError
+from llmpas.language.language_errors import BindingError, ModelError
 from llmpas.language.logic import (
     And,
     Atom,

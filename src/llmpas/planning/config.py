@@ -7,7 +7,7 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from llmpas.planning import registry
+from llmpas.planning import planner_registry
 from llmpas.planning.quality import DEFAULT_QUALITY, QUALITIES, QualityName
 from llmpas.planning.result import Algorithm
 
@@ -108,7 +108,7 @@ class PlannerConfig:
     ``search`` (a Fast Downward search string) replaces the quality's first search.
 
     ``algorithm`` names a planning algorithm and ``classical`` the classical planner every
-    search runs on, both in :mod:`~llmpas.planning.registry` (``llmpas plan --algorithm``,
+    search runs on, both in :mod:`~llmpas.planning.planner_registry` (``llmpas plan --algorithm``,
     ``--classical``).
 
     :attr:`deterministic` holds when every counted limit is set; :meth:`validation` is the preset
@@ -116,7 +116,7 @@ class PlannerConfig:
     inputs must give the same verdict on any machine and under any load.
     """
 
-    algorithm: Algorithm = registry.DEFAULT_ALGORITHM
+    algorithm: Algorithm = planner_registry.DEFAULT_ALGORITHM
     defer: bool = True
     max_time: float = 60.0
     max_iterations: int = 200
@@ -132,11 +132,11 @@ class PlannerConfig:
     max_stream_calls: int | None = None
     max_empty_samples: int | None = None
     max_instances: int = 50_000  # optimistic stream instances in one closure
-    classical: str = registry.DEFAULT_CLASSICAL
+    classical: str = planner_registry.DEFAULT_CLASSICAL
 
     def __post_init__(self) -> None:
-        registry.algorithm(self.algorithm)  # ValueError naming the choices
-        registry.classical_planner(self.classical)
+        planner_registry.algorithm(self.algorithm)  # ValueError naming the choices
+        planner_registry.classical_planner(self.classical)
         if not (self.max_time > 0 and self.search_time > 0):  # NaN fails too
             raise ValueError("max_time and search_time must be > 0")
         if not (math.isfinite(self.max_time) and math.isfinite(self.search_time)):

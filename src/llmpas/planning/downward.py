@@ -303,7 +303,7 @@ class FastDownward:
 
 def fast_downward(search: str, config: PlannerConfig) -> FastDownward:
     """The registered classical planner ``fast-downward``
-    (:data:`~llmpas.planning.registry.CLASSICAL_PLANNERS`): Fast Downward running ``search``
+    (:data:`~llmpas.planning.planner_registry.CLASSICAL_PLANNERS`): Fast Downward running ``search``
     within the config's per-search time and memory."""
     return FastDownward(
         DownwardConfig(search=search, max_time=config.search_time, memory_mb=config.memory_mb)

@@ -42,7 +42,7 @@ from llmpas.language.logic import (
     effect_atoms,
 )
 from llmpas.language.problem import Problem
-from llmpas.planning import registry
+from llmpas.planning import planner_registry
 
 BLOCKED_PREFIX = "blocked__"
 CONTEXT_PREFIX = "ctx__"
@@ -79,7 +79,7 @@ def unsupported_fluents(
     if not streams:
         return None
     first = sorted(streams)[0]
-    if "fluents" not in registry.algorithm(algorithm).supports:
+    if "fluents" not in planner_registry.algorithm(algorithm).supports:
         return (
             f"stream {first!r}: ':fluents' needs the focused algorithm (adaptive, focused, "
             f"binding), not {algorithm!r}"

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from llmpas.language.bindings import BoundStream
 from llmpas.language.logic import FuncTerm
 from llmpas.language.problem import Problem, missing_function_value
-from llmpas.planning import registry
+from llmpas.planning import planner_registry
 from llmpas.planning.compile import (
     COST_SCALE,
     CompiledDomain,
@@ -45,7 +45,7 @@ log = logging.getLogger(__name__)
 @dataclass
 class Run:
     """Mutable bookkeeping of one call to :func:`solve`: what a registered algorithm
-    (:data:`~llmpas.planning.registry.ALGORITHMS`) works on."""
+    (:data:`~llmpas.planning.planner_registry.ALGORITHMS`) works on."""
 
     problem: Problem
     config: PlannerConfig
@@ -98,7 +98,7 @@ class Run:
         explicit = self.config.search if n == 0 else None
         command = explicit or self.quality.search(n).command(self.bound())
         if command not in self.planners:
-            make = registry.classical_planner(self.config.classical).load()
+            make = planner_registry.classical_planner(self.config.classical).load()
             self.planners[command] = make(command, self.config)
         return self.planners[command]
 

@@ -179,4 +179,4 @@ class PlanResult:
         return json.dumps(self.to_json(), indent=2)
 
 
-Algorithm = str  # a name in llmpas.planning.registry.ALGORITHMS
+Algorithm = str  # a name in llmpas.planning.planner_registry.ALGORITHMS

@@ -45,7 +45,7 @@ from collections import Counter
 
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import State
-from llmpas.planning import registry
+from llmpas.planning import planner_registry
 from llmpas.planning.compile import (
     compile_domain,
     compile_task,
@@ -182,7 +182,7 @@ def _solve_once(
     )
     run.domain_text = guard_quantifiers(run.compiled.domain).to_pddl()
     try:
-        plan = registry.algorithm(config.algorithm).load()
+        plan = planner_registry.algorithm(config.algorithm).load()
         result: PlanResult = plan(run)
         return _shared_verdict(run, result)
     except StreamFailure as e:

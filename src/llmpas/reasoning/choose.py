@@ -43,7 +43,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 from llmpas.language.logic import Atom, Not
-from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal
+from llmpas.reasoning.goal_reading import GoalParse, GoalStatus, Literal
 from llmpas.reasoning.llm import (
     LLM,
     Message,

@@ -2,7 +2,7 @@
 
 :func:`gbnf` gives a llama.cpp grammar for ``(and LIT ...)``; :func:`json_schema` a JSON schema for
 OpenAI structured outputs. Everything either admits is read by
-:func:`llmpas.reasoning.goals.parse_goals` (which still checks contradictions and goals that
+:func:`llmpas.reasoning.goal_reading.parse_goals` (which still checks contradictions and goals that
 already hold).
 """
 
@@ -14,7 +14,7 @@ from collections.abc import Collection, Mapping
 from typing import Any
 
 from llmpas.language.logic import Atom, Not
-from llmpas.reasoning.goals import Literal
+from llmpas.reasoning.goal_reading import Literal
 from llmpas.reasoning.tables import Call, Vocabulary
 
 

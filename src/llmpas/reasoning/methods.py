@@ -33,7 +33,7 @@ any, how its answers are read): a new method is one template file and one regist
 :func:`method_names` (the choices of ``--method`` and ``--methods``) lists it. Templates live in
 ``llmpas/reasoning/templates/*.txt`` (``string.Template`` placeholders) and can be edited without
 touching code; a method may also name a template file elsewhere by its absolute path. Every
-answer is parsed and validated against the goal vocabulary (:mod:`llmpas.reasoning.goals`); a
+answer is parsed and validated against the goal vocabulary (:mod:`llmpas.reasoning.goal_reading`); a
 rejected answer is sent back with the errors, at most ``repairs`` times.
 LLM output is only ever parsed.
 """
@@ -53,7 +53,7 @@ from types import MappingProxyType
 from typing import Any
 
 from llmpas.language.logic import Formula
-from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal, parse_goals
+from llmpas.reasoning.goal_reading import GoalParse, GoalStatus, Literal, parse_goals
 from llmpas.reasoning.grammar import gbnf, json_schema, skill_gbnf
 from llmpas.reasoning.llm import LLM, Message, Request, Response
 from llmpas.reasoning.program import parse_program

@@ -4,7 +4,7 @@ The program is parsed with :mod:`ast` and never compiled or run. Each call of a 
 string-constant arguments becomes the goal literal the action makes true; a later call on the same
 first argument supersedes an earlier one (``pick("cube")`` then ``place("cube", "bowl")`` leaves
 ``(on cube bowl)``). The literals then go through the same validation as every other answer
-(:func:`llmpas.reasoning.goals.parse_goals`).
+(:func:`llmpas.reasoning.goal_reading.parse_goals`).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import ast
 import re
 from collections.abc import Mapping
 
-from llmpas.reasoning.goals import GoalParse, GoalStatus, parse_goals
+from llmpas.reasoning.goal_reading import GoalParse, GoalStatus, parse_goals
 from llmpas.reasoning.tables import Call, Vocabulary
 
 MAX_PROGRAM = 8_000

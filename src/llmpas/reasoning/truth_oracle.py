@@ -11,7 +11,7 @@ import re
 
 from llmpas.language.logic import Atom, Formula, Not
 from llmpas.language.sexpr import SList, Sym, parse_all
-from llmpas.reasoning.goals import parse_goals
+from llmpas.reasoning.goal_reading import parse_goals
 from llmpas.reasoning.llm import Request, Response, ScoreRequest, Scores
 from llmpas.reasoning.tables import Vocabulary
 

@@ -2,6 +2,6 @@
 files on disk, and the browser that checks and photographs them (:mod:`.browser`)."""
 
 from llmpas.reporting.page import Built, build_report, render
-from llmpas.reporting.record import ReportError, RunRecord, read_run
+from llmpas.reporting.run_folder import ReportError, RunRecord, read_run
 
 __all__ = ["Built", "ReportError", "RunRecord", "build_report", "read_run", "render"]

@@ -1,6 +1,6 @@
 """Which of the LLM's goals made the difference in a closed loop, and what replanning alone did.
 
-Read from a run folder's record (:class:`~llmpas.reporting.record.RunRecord`): each LLM answer's
+Read from a run folder's record (:class:`~llmpas.reporting.run_folder.RunRecord`): each LLM answer's
 goals and what became of them (rejected, not reached, reached), the goals reached last before the
 task was done (the *decisive* ones), and, when the run folder holds the replan-only run of the
 same scenario and seed (``about.json``'s ``baseline``: a folder relative to the run's), that run's
@@ -13,7 +13,7 @@ import json
 from dataclasses import dataclass
 from typing import Any
 
-from llmpas.reporting.record import RunRecord, get_str
+from llmpas.reporting.run_folder import RunRecord, get_str
 
 MAX_BASELINE_BYTES = 50_000_000
 

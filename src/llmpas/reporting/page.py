@@ -25,7 +25,7 @@ from llmpas.files import atomic_write
 from llmpas.reasoning.truth_oracle import ORACLE
 from llmpas.reporting import diagram
 from llmpas.reporting.html import Markup, href, join, slug, tag, void
-from llmpas.reporting.record import (
+from llmpas.reporting.run_folder import (
     DEFERS,
     Exchange,
     Media,

@@ -8,16 +8,16 @@ prompt tables and a search model. This package is the only place that plans, exe
 the LLM in a run; it imports no world. Its modules:
 
 - :mod:`~llmpas.system.loop`: round control (:func:`close_loop`, :class:`LoopSettings`);
-- :mod:`~llmpas.system.anomaly`: the anomaly being resolved (the one place that reads the
+- :mod:`~llmpas.system.anomaly_memory`: the anomaly being resolved (the one place that reads the
   executor's report) and the memory of what was tried for it;
 - :mod:`~llmpas.system.consult`: the consultation (the method asked, the candidates of a
-  choosing method ranked), its answers checked by :mod:`~llmpas.system.checks` (the
+  choosing method ranked), its answers checked by :mod:`~llmpas.system.goal_checks` (the
   :class:`GoalChecker`, reasoning's ``Check``), :mod:`~llmpas.system.candidates` and
   :mod:`~llmpas.system.achievable`;
-- :mod:`~llmpas.system.goals`: the next goal (the task with the recovery goals kept, an
+- :mod:`~llmpas.system.next_goal`: the next goal (the task with the recovery goals kept, an
   answer's goals staged in the order written), with :mod:`~llmpas.system.recovery`'s rules;
 - :mod:`~llmpas.system.acting`: :func:`plan` and :func:`execute`, memoised per round;
-- :mod:`~llmpas.system.backends`: the loop's LLM, a factory of the session (:func:`fixed` for
+- :mod:`~llmpas.system.llm_factories`: the loop's LLM, a factory of the session (:func:`fixed` for
   a plain backend), asked once per identical request and before the deadline;
 - :mod:`~llmpas.system.sweep`: an object-loss consultation's places, searched in order until
   the object is seen, within a budget; :mod:`~llmpas.system.substitution`: a substitute for a
@@ -25,7 +25,7 @@ the LLM in a run; it imports no world. Its modules:
 - :mod:`~llmpas.system.settings`: :class:`LoopSettings`;
 - :mod:`~llmpas.system.observe`: the :class:`Observer` the loop tells of every plan, tick,
   round, consultation and record (a live view, a recording); none by default;
-- :mod:`~llmpas.system.search`: the :class:`SearchMemory` (what was searched, what is left);
+- :mod:`~llmpas.system.search_memory`: the :class:`SearchMemory` (what was searched, what is left);
 - :mod:`~llmpas.system.records`: rounds, results (belief and truth side by side), the Markdown
   report and the run folder;
 - :mod:`~llmpas.system.run`: the entry points :func:`run` and :func:`run_once`, which judge the
@@ -37,8 +37,9 @@ labelled oracle.
 """
 
 from llmpas.system.acting import counted, execute, plan
-from llmpas.system.backends import LLMFactory, LLMFor, as_factory, fixed
-from llmpas.system.checks import UNJUDGED, GoalChecker
+from llmpas.system.entry_points import judged, run, run_once, truth
+from llmpas.system.goal_checks import UNJUDGED, GoalChecker
+from llmpas.system.llm_factories import LLMFactory, LLMFor, as_factory, fixed
 from llmpas.system.loop import LoopSettings, close_loop
 from llmpas.system.observe import NoObserver, Observer
 from llmpas.system.records import (
@@ -51,8 +52,7 @@ from llmpas.system.records import (
     save_once,
     save_records,
 )
-from llmpas.system.run import judged, run, run_once, truth
-from llmpas.system.search import SearchMemory
+from llmpas.system.search_memory import SearchMemory
 from llmpas.system.sweep import SweepBudget
 
 __all__ = [

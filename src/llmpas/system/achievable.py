@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 from llmpas.language.domain import Action, Domain
 from llmpas.language.logic import Atom, Not, atoms_of, conjuncts, effect_atoms, is_var
 from llmpas.language.problem import Problem
-from llmpas.reasoning.goals import Literal
+from llmpas.reasoning.goal_reading import Literal
 
 
 def changed(domain: Domain) -> frozenset[str]:

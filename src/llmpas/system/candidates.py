@@ -2,7 +2,7 @@
 enumerated from the world's vocabulary, kept when the loop's own checks accept them.
 
 **What is enumerated.** The anomaly's objects and places
-(:meth:`~llmpas.system.anomaly.Anomaly.objects`: the failed step's arguments, the failed
+(:meth:`~llmpas.system.anomaly_memory.Anomaly.objects`: the failed step's arguments, the failed
 literal's, and the vocabulary's objects its reason names, ``lid lies over bowl``). Single
 literals are every grounding of a goal predicate that names one of them, both polarities, and,
 when one of them is lost, every look the vocabulary allows (``(scanned P)``); then conjunctions
@@ -11,7 +11,7 @@ of two surviving literals of different predicates that share an object.
 **What is dropped**, cheapest test first: literals no action can make true
 (:class:`~llmpas.system.achievable.Makeable`); literals already true; literals of the goal that
 just failed (the failure would repeat); searches already made in vain. The planner-backed checks
-of the loop's validator (:class:`~llmpas.system.checks.GoalChecker`: repeated searches, already
+of the loop's validator (:class:`~llmpas.system.goal_checks.GoalChecker`: repeated searches, already
 true, unreachable, tried before) run on the ranking, best first, up to the first candidate they
 accept exactly as it is (:func:`first_accepted`): the candidate proposed is the one that ranking
 all accepted candidates would give, for far fewer planner calls. A literal that names none of the
@@ -34,7 +34,7 @@ import itertools
 from collections.abc import Callable, Iterable, Sequence, Set
 
 from llmpas.language.logic import Atom, Not
-from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal
+from llmpas.reasoning.goal_reading import GoalParse, GoalStatus, Literal
 from llmpas.reasoning.tables import Vocabulary
 
 MAX_SINGLES = 36  # single literals ranked, at most

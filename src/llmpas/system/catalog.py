@@ -9,7 +9,8 @@ package, and no list of their names is kept anywhere else. A user's world is
 oracle an ``oracle(session)`` function beside it.
 
 An ``--llm`` spec is any kind of the backend registry
-(:data:`~llmpas.reasoning.backends.registry.KINDS`); its two recovery methods that ask no model,
+(:data:`~llmpas.reasoning.backends.backend_registry.KINDS`); its two recovery methods that ask
+no model,
 ``oracle`` (:mod:`llmpas.reasoning.truth_oracle`) and ``replan``
 (:mod:`llmpas.reasoning.replan`), are built here, where the world is known (:func:`llm_for`).
 
@@ -33,7 +34,7 @@ from llmpas.errors import UsageError
 from llmpas.worlds.api import RobotEntry, World, WorldEntry
 
 if TYPE_CHECKING:  # the loop and the backends load when an LLM is built, not for a listing
-    from llmpas.system.backends import LLMFactory, LLMFor
+    from llmpas.system.llm_factories import LLMFactory, LLMFor
 
 SHIPPED = "llmpas.worlds"
 """The package whose subpackages are the shipped worlds and robots."""
@@ -193,14 +194,15 @@ def llm_for(
     spec: str, record: str | None = None, world: str | None = None, method: str = "flp"
 ) -> LLMFactory:
     """The loop's LLM for an ``--llm`` spec (any kind of the backend registry,
-    :data:`~llmpas.reasoning.backends.registry.KINDS`), as the loop takes it: a factory of the
+    :data:`~llmpas.reasoning.backends.backend_registry.KINDS`), as the loop takes it: a factory of
+    the
     session. ``oracle``: the world's labelled oracle (default: the file world's); ``replan``: no
     reasoning, the session's task restated (in ``method``'s answer form); any other: that
-    backend, :func:`~llmpas.system.backends.fixed`."""
-    from llmpas.reasoning.backends.registry import make_backend
+    backend, :func:`~llmpas.system.llm_factories.fixed`."""
+    from llmpas.reasoning.backends.backend_registry import make_backend
     from llmpas.reasoning.replan import REPLAN, Replan
     from llmpas.reasoning.truth_oracle import ORACLE
-    from llmpas.system.backends import as_factory
+    from llmpas.system.llm_factories import as_factory
 
     def oracle(arg: str, rec: str | None) -> LLMFor:
         if rec:

@@ -1,6 +1,6 @@
 """The consultation: an anomaly goes to the reasoning method, and its goals come back checked.
 A goal-writing method is asked through :func:`~llmpas.reasoning.methods.propose` with the
-:class:`~llmpas.system.checks.GoalChecker` inside its repair loop; a choosing method gets the
+:class:`~llmpas.system.goal_checks.GoalChecker` inside its repair loop; a choosing method gets the
 candidates enumerated now (:mod:`llmpas.system.candidates`), ranks them, and the best one the
 checks accept is proposed, the rest kept for the same anomaly again."""
 
@@ -16,17 +16,17 @@ from llmpas.language.semantics import Semantics
 from llmpas.planning.invariants import Invariants
 from llmpas.reasoning.assists import Assists
 from llmpas.reasoning.choose import Ranked, chosen, nothing, rank
-from llmpas.reasoning.goals import Literal
+from llmpas.reasoning.goal_reading import Literal
 from llmpas.reasoning.llm import LLM
 from llmpas.reasoning.methods import MethodConfig, Proposal, method, propose
 from llmpas.reasoning.prompts import situation
 from llmpas.reasoning.tables import Vocabulary
 from llmpas.system.achievable import Makeable, certified
 from llmpas.system.acting import Acting
-from llmpas.system.anomaly import Anomaly, Tried
+from llmpas.system.anomaly_memory import Anomaly, Tried
 from llmpas.system.candidates import enumerate_goals, first_accepted
-from llmpas.system.checks import GoalChecker
-from llmpas.system.search import SearchMemory
+from llmpas.system.goal_checks import GoalChecker
+from llmpas.system.search_memory import SearchMemory
 from llmpas.system.substitution import Causes, substitutes
 from llmpas.system.sweep import Sweep, SweepBudget, ordered
 

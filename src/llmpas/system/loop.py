@@ -1,12 +1,12 @@
-"""Round control: plan -> execute -> on an anomaly (:mod:`~llmpas.system.anomaly`), consult
+"""Round control: plan -> execute -> on an anomaly (:mod:`~llmpas.system.anomaly_memory`), consult
 the reasoning method (:mod:`~llmpas.system.consult`, its answers checked by a
-:class:`~llmpas.system.checks.GoalChecker`, its searches remembered by a
-:class:`~llmpas.system.search.SearchMemory`) -> replan from the believed state with the next
-goal (:mod:`~llmpas.system.goals`: the new goals, and the task goals when they can be planned
+:class:`~llmpas.system.goal_checks.GoalChecker`, its searches remembered by a
+:class:`~llmpas.system.search_memory.SearchMemory`) -> replan from the believed state with the next
+goal (:mod:`~llmpas.system.next_goal`: the new goals, and the task goals when they can be planned
 together) -> resume, for a bounded number of rounds (:func:`close_loop`).
 
 The loop takes its LLM in one shape: a factory of the session
-(:data:`~llmpas.system.backends.LLMFactory`), called once when the loop starts.
+(:data:`~llmpas.system.llm_factories.LLMFactory`), called once when the loop starts.
 """
 
 from __future__ import annotations
@@ -21,11 +21,12 @@ from llmpas.language.logic import Formula
 from llmpas.language.problem import parse_formula
 from llmpas.language.semantics import Semantics
 from llmpas.planning.invariants import Invariants
-from llmpas.reasoning.goals import Literal
+from llmpas.reasoning.goal_reading import Literal
 from llmpas.reasoning.llm import LLM, Baseline, LLMError
 from llmpas.system.acting import Acting, counted, execute, plan
-from llmpas.system.anomaly import Anomaly, Tried, repeats_failure, unknown_place
-from llmpas.system.backends import (
+from llmpas.system.anomaly_memory import Anomaly, Tried, repeats_failure, unknown_place
+from llmpas.system.consult import Consultation
+from llmpas.system.llm_factories import (
     ByDeadline,
     DeadlineReached,
     LLMFactory,
@@ -36,11 +37,10 @@ from llmpas.system.backends import (
     fixed,
     who,
 )
-from llmpas.system.consult import Consultation
-from llmpas.system.goals import NextGoal
+from llmpas.system.next_goal import NextGoal
 from llmpas.system.observe import Observer
 from llmpas.system.records import LoopResult, LoopStatus, OnRound, Round
-from llmpas.system.search import SearchMemory
+from llmpas.system.search_memory import SearchMemory
 from llmpas.system.settings import LoopSettings
 from llmpas.system.sweep import Sweep
 from llmpas.worlds.api import Session
@@ -288,7 +288,7 @@ def close_loop(
 ) -> LoopResult:
     """Run the closed loop on an open ``session``. ``llm``: a factory of the session (a
     labelled oracle, which reads the world's truth, say), or a backend (read as
-    :func:`~llmpas.system.backends.fixed`); it is built once, when the loop starts.
+    :func:`~llmpas.system.llm_factories.fixed`); it is built once, when the loop starts.
 
     ``on_round`` gets the record after every plan-and-execute step and every LLM answer
     (status ``running``), and the final one; when an LLM error, a crash or an interrupt ends

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from llmpas.reasoning.goals import Literal
+from llmpas.reasoning.goal_reading import Literal
 from llmpas.reasoning.llm import LLMError, Request, Response
 from llmpas.reasoning.methods import Situation
 from llmpas.system.candidates import accepted_as

@@ -1,5 +1,5 @@
 """What the closed loop keeps from a recovery, apart from the round control itself
-(:mod:`llmpas.system.goals`).
+(:mod:`llmpas.system.next_goal`).
 
 **Recovery goals stay achieved.** Once the loop has accepted the LLM's goals and achieved them,
 later plans for the task keep them true (:func:`kept_goal`): they join the task's goal, except
@@ -32,7 +32,7 @@ from llmpas.language.logic import And, Atom, Formula, Not, atoms_of
 from llmpas.language.problem import Problem
 from llmpas.language.semantics import Semantics
 from llmpas.planning.result import Plan
-from llmpas.reasoning.goals import Literal
+from llmpas.reasoning.goal_reading import Literal
 
 
 def negation(g: Literal) -> Literal:

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 from llmpas.language.domain import Domain
 from llmpas.language.logic import And, Atom, Formula, Not, conjuncts, effect_atoms
-from llmpas.reasoning.goals import Literal
+from llmpas.reasoning.goal_reading import Literal
 
 
 @dataclass(frozen=True)

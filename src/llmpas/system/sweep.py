@@ -15,7 +15,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
-from llmpas.reasoning.goals import Literal
+from llmpas.reasoning.goal_reading import Literal
 
 
 @dataclass(frozen=True)

@@ -41,7 +41,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
-from llmpas.execution.anomaly import AnomalyReport
+from llmpas.execution.anomaly_report import AnomalyReport
 from llmpas.execution.context import Context
 from llmpas.execution.csubbt import SubtreeSpec
 from llmpas.execution.executor import ExecutorConfig

@@ -8,10 +8,10 @@ from typing import Any
 
 import numpy as np
 
+from llmpas.worlds.household.household_values import ArmTarget, BaseConf, Grasp
 from llmpas.worlds.household.layout import kitchen
 from llmpas.worlds.household.scenario import Scenario
 from llmpas.worlds.household.sim import HouseholdWorld
-from llmpas.worlds.household.values import ArmTarget, BaseConf, Grasp
 
 UP = math.pi / 2
 DOWN = -math.pi / 2

@@ -14,16 +14,16 @@ import numpy as np
 import py_trees
 import pytest
 
-from llmpas.execution.anomaly import AnomalyReport
+from llmpas.execution.anomaly_report import AnomalyReport
 from llmpas.execution.context import Belief, Context
 from llmpas.execution.executor import execute
 from llmpas.language.logic import Atom, Not
 from llmpas.language.semantics import Semantics
 from llmpas.planning import PlannerConfig, solve
 from llmpas.planning.result import Plan
-from llmpas.worlds.household.decomposition import build_specs
+from llmpas.worlds.household.household_decomposition import build_specs
+from llmpas.worlds.household.household_problem import Household, initial_belief, make_problem
 from llmpas.worlds.household.layout import kitchen
-from llmpas.worlds.household.problem import Household, initial_belief, make_problem
 from llmpas.worlds.household.scenario import (
     Scenario,
     ScenarioError,

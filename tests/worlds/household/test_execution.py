@@ -15,7 +15,7 @@ from llmpas.language.logic import Atom, Not
 from llmpas.planning import PlanResult
 from llmpas.system import execute, plan
 from llmpas.worlds.api import RunOptions
-from llmpas.worlds.household.plugin import WORLD
+from llmpas.worlds.household.household_plugin import WORLD
 from llmpas.worlds.household.sim import HouseholdWorld
 
 

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import pytest
 
+from llmpas.worlds.household.household_values import Placement
 from llmpas.worlds.household.layout import kitchen
 from llmpas.worlds.household.scenario import (
     SCENARIO_DIR,
@@ -15,7 +16,6 @@ from llmpas.worlds.household.scenario import (
     builtin_scenarios,
     load_scenario,
 )
-from llmpas.worlds.household.values import Placement
 
 from .support import data, scenario
 

@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from llmpas.execution.world import Observation, Perception, Robot
+from llmpas.execution.robot_protocols import Observation, Perception, Robot
+from llmpas.worlds.household.household_values import BaseConf, Motion, Placement
 from llmpas.worlds.household.layout import kitchen
 from llmpas.worlds.household.scenario import builtin_scenario
 from llmpas.worlds.household.sim import HouseholdWorld
-from llmpas.worlds.household.values import BaseConf, Motion, Placement
 
 from .support import (
     AT_CABINET,

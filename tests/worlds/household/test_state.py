@@ -6,6 +6,7 @@ import dataclasses
 
 import pytest
 
+from llmpas.worlds.household.household_values import BaseConf, Placement
 from llmpas.worlds.household.layout import default_objects, kitchen
 from llmpas.worlds.household.state import (
     TrueState,
@@ -13,7 +14,6 @@ from llmpas.worlds.household.state import (
     point_rect_distance,
     segment_rect_distance,
 )
-from llmpas.worlds.household.values import BaseConf, Placement
 
 from .support import scenario
 

@@ -8,7 +8,7 @@ from typing import Any
 
 import pytest
 
-from llmpas.worlds.household.plugin import belief_from, household_for
+from llmpas.worlds.household.household_plugin import belief_from, household_for
 from llmpas.worlds.household.scenario import Scenario, ScenarioError
 from llmpas.worlds.household.sim import HouseholdWorld
 from llmpas.worlds.household.state import HIDDEN, PROPERTIES, STATES

@@ -15,17 +15,17 @@ pytest.importorskip("pybullet")
 pytest.importorskip("ompl")
 
 from llmpas.cli import main
-from llmpas.execution.world import Detection, Observation
+from llmpas.execution.robot_protocols import Detection, Observation
 from llmpas.experiments.worlds import LoopConfig, run_loop
 from llmpas.language.logic import Atom
 from llmpas.reasoning.backends.replay import ReplayBackend
 from llmpas.reasoning.truth_oracle import ORACLE
 from llmpas.system.catalog import llm_for
 from llmpas.worlds.api import RunOptions
-from llmpas.worlds.pybullet.decomposition import covering
-from llmpas.worlds.pybullet.run import scenarios, setup_scene, true_facts
+from llmpas.worlds.pybullet.pybullet_decomposition import covering
+from llmpas.worlds.pybullet.pybullet_scenarios import scenarios, setup_scene, true_facts
+from llmpas.worlds.pybullet.pybullet_values import ObjectPose
 from llmpas.worlds.pybullet.scene import TABLE_TOP, Scene, SceneConfig, open_client
-from llmpas.worlds.pybullet.values import ObjectPose
 
 QUIET = RunOptions(snapshots=False)
 CASSETTES = Path(__file__).parents[2] / "data" / "cassettes" / "qwen1.5b-pybullet-blocking"

@@ -144,7 +144,7 @@ def test_in_the_two_table_variant_the_robot_keeps_what_it_saw() -> None:
 
 
 def test_the_scenario_keeps_its_tables_apart() -> None:
-    from llmpas.worlds.pybullet.run import scenarios
+    from llmpas.worlds.pybullet.pybullet_scenarios import scenarios
 
     scene = scenarios()["object-loss"].scene
     assert [t.name for t in scene.tables] == ["table1", "table2", "table3", "table4"]

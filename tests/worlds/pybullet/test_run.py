@@ -16,15 +16,15 @@ from llmpas.execution.executor import ExecStatus
 from llmpas.language.logic import Atom, Not
 from llmpas.system import LoopResult, run_once
 from llmpas.worlds.api import RunOptions
-from llmpas.worlds.pybullet.motion import BaseChecker
-from llmpas.worlds.pybullet.plugin import WORLD
-from llmpas.worlds.pybullet.problem import static_facts
-from llmpas.worlds.pybullet.run import PyBulletScenario, scenarios
+from llmpas.worlds.pybullet.pybullet_motion import BaseChecker
+from llmpas.worlds.pybullet.pybullet_plugin import WORLD
+from llmpas.worlds.pybullet.pybullet_problem import static_facts
+from llmpas.worlds.pybullet.pybullet_robot import PyBulletWorld
+from llmpas.worlds.pybullet.pybullet_scenarios import PyBulletScenario, scenarios
+from llmpas.worlds.pybullet.pybullet_streams import Geometry, make_streams
+from llmpas.worlds.pybullet.pybullet_values import BaseConf, BasePath, Grasp, ObjectPose
 from llmpas.worlds.pybullet.scene import TABLE_TOP, SceneConfig, open_scene
 from llmpas.worlds.pybullet.snapshot import is_blank
-from llmpas.worlds.pybullet.streams import Geometry, make_streams
-from llmpas.worlds.pybullet.values import BaseConf, BasePath, Grasp, ObjectPose
-from llmpas.worlds.pybullet.world import PyBulletWorld
 
 
 class Once:
@@ -177,7 +177,7 @@ def test_seeded_events_stay_on_their_table_and_depend_on_the_seed() -> None:
 def test_look_orientation_points_the_gripper_along_the_axis(axis: tuple[float, ...]) -> None:
     import pybullet as p
 
-    from llmpas.worlds.pybullet.world import look_orientation
+    from llmpas.worlds.pybullet.pybullet_robot import look_orientation
 
     q = look_orientation(np.array(axis))
     m = np.array(p.getMatrixFromQuaternion(q)).reshape(3, 3)

@@ -23,7 +23,7 @@ from llmpas.worlds.pybullet.kinematics import (
     solve_ik,
     top_grasp_orientation,
 )
-from llmpas.worlds.pybullet.motion import (
+from llmpas.worlds.pybullet.pybullet_motion import (
     BaseChecker,
     MotionConfig,
     base_line,
@@ -33,6 +33,7 @@ from llmpas.worlds.pybullet.motion import (
     plan_arm,
     plan_base,
 )
+from llmpas.worlds.pybullet.pybullet_values import ObjectPose
 from llmpas.worlds.pybullet.scene import (
     HOME_CONF,
     TABLE_TOP,
@@ -44,7 +45,6 @@ from llmpas.worlds.pybullet.scene import (
 )
 from llmpas.worlds.pybullet.skills import Skills
 from llmpas.worlds.pybullet.snapshot import is_blank, overview, save_gif, save_png
-from llmpas.worlds.pybullet.values import ObjectPose
 
 AT_TABLE1 = (0.55, 0.1, 0.0)  # base pose facing table1 (its near edge is at x = 1.1)
 TABLE1_TOP = (1.3, 0.0, TABLE_TOP)

@@ -34,8 +34,8 @@ def main(domain: int, folder: Path, out: Path, gate: Path) -> None:
     from llmpas.execution.executor import ExecutorConfig, execute
     from llmpas.execution.space import Dimension
     from llmpas.language.logic import Atom
+    from llmpas.worlds.pybullet.pybullet_values import BaseConf
     from llmpas.worlds.pybullet.scene import open_client
-    from llmpas.worlds.pybullet.values import BaseConf
     from llmpas.worlds.ros2.env import RosEnv
     from llmpas.worlds.ros2.process import ros_context
     from llmpas.worlds.ros2.profile import load as load_profile

@@ -16,13 +16,13 @@ from tests.worlds.ros2.conftest import REPO, ros_environ
 CLIENT = """
 import json, sys
 from pathlib import Path
-from llmpas.execution.world import finish
-from llmpas.worlds.pybullet.run import resolve
+from llmpas.execution.robot_protocols import finish
+from llmpas.worlds.pybullet.pybullet_scenarios import resolve
 from llmpas.worlds.pybullet.scene import Scene, open_client
-from llmpas.worlds.pybullet.values import BaseConf
+from llmpas.worlds.pybullet.pybullet_values import BaseConf
 from llmpas.worlds.ros2.client import RosRobot, Timeouts
 from llmpas.worlds.ros2.env import from_environment
-from llmpas.worlds.ros2.session import ros_context
+from llmpas.worlds.ros2.ros2_session import ros_context
 
 out = {}
 with ros_context(from_environment(Path(sys.argv[1]))) as context, open_client(False) as c:

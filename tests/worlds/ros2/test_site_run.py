@@ -78,8 +78,8 @@ import llmpas.cli
 world = load_world("ros2")
 import llmpas.worlds.ros2.site_session
 loaded = [m for m in sys.modules if m.startswith("llmpas.worlds.") or m == "pybullet_data"]
-scenario = ("llmpas.worlds.pybullet.run", "llmpas.worlds.pybullet.plugin",
-            "llmpas.worlds.ros2.session", "pybullet_data")
+scenario = ("llmpas.worlds.pybullet.pybullet_scenarios", "llmpas.worlds.pybullet.pybullet_plugin",
+            "llmpas.worlds.ros2.ros2_session", "pybullet_data")
 # the robot's package itself is read for its registration (ROBOT_ENTRY: names only, by the
 # registry, llmpas.system.catalog); none of its modules loads
 bad = [m for m in loaded if m in scenario or m.startswith("llmpas.worlds.pybullet_ros2.")]

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from llmpas.worlds.pybullet.kinematics import Collision
+from llmpas.worlds.pybullet.pybullet_values import BaseConf
 from llmpas.worlds.pybullet.scene import open_client
-from llmpas.worlds.pybullet.values import BaseConf
 from llmpas.worlds.ros2.robot_model import DescriptionError, arm_model
 from llmpas.worlds.ros2.site import parse
 from llmpas.worlds.ros2.site_scene import SiteScene

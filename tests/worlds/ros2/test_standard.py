@@ -38,7 +38,7 @@ from pathlib import Path
 import rclpy
 from rclpy.action import get_action_names_and_types
 from llmpas.worlds.ros2.env import from_environment
-from llmpas.worlds.ros2.session import ros_context
+from llmpas.worlds.ros2.ros2_session import ros_context
 
 with ros_context(from_environment(Path(sys.argv[1]))) as context:
     node = rclpy.create_node("graph_probe", context=context)
@@ -63,15 +63,15 @@ CLIENT = """
 import json, sys
 from pathlib import Path
 import numpy as np
-from llmpas.worlds.pybullet.run import resolve, setup_scene
+from llmpas.worlds.pybullet.pybullet_scenarios import resolve, setup_scene
 from llmpas.worlds.pybullet.scene import Scene, open_client
-from llmpas.worlds.pybullet.values import BaseConf
+from llmpas.worlds.pybullet.pybullet_values import BaseConf
 from llmpas.worlds.ros2.client import Timeouts
 from llmpas.worlds.ros2.env import from_environment
 from llmpas.worlds.ros2.profile import load
-from llmpas.worlds.ros2.session import ros_context
+from llmpas.worlds.ros2.ros2_session import ros_context
 from llmpas.worlds.ros2.standard_robot import StandardRobot
-from llmpas.execution.world import finish
+from llmpas.execution.robot_protocols import finish
 
 out = {}
 profile = load(sys.argv[2])
@@ -160,7 +160,7 @@ def test_a_namespaced_standard_robot_driven_through_a_profile(tmp_path: Path, st
     assert out["places"][0][:2] == ["shelf", "map"] and len(out["places"][0][2]) == 4
     assert [round(v, 6) for v in out["furniture"]] == [-3.0, -3.0, 0.8]
     # the robot starts facing table1, the cube on it: seen there, in map
-    from llmpas.worlds.pybullet.run import resolve
+    from llmpas.worlds.pybullet.pybullet_scenarios import resolve
 
     config = resolve("object-loss").scene
     cube = config.obj("cube")

@@ -24,12 +24,12 @@ def main(domain: int, folder: Path, out: Path) -> None:
     from llmpas.execution.executor import ExecutorConfig, execute
     from llmpas.execution.space import Dimension
     from llmpas.language.logic import Atom
-    from llmpas.worlds.pybullet.run import resolve
+    from llmpas.worlds.pybullet.pybullet_scenarios import resolve
+    from llmpas.worlds.pybullet.pybullet_values import BaseConf
     from llmpas.worlds.pybullet.scene import Scene, open_client
-    from llmpas.worlds.pybullet.values import BaseConf
     from llmpas.worlds.ros2.client import RosRobot
     from llmpas.worlds.ros2.env import RosEnv
-    from llmpas.worlds.ros2.session import ros_context
+    from llmpas.worlds.ros2.ros2_session import ros_context
 
     with ros_context(RosEnv(domain, folder / "log")) as context, open_client(False) as client:
         robot = RosRobot(context, Scene(client, resolve("object-loss").scene))

@@ -1,6 +1,6 @@
 """Mobile manipulation in a kitchen, in the style of the LLM-PAS paper's domains."""
 
-from llmpas.examples.mobile.problem import (
+from llmpas.examples.mobile.mobile_problem import (
     ARM,
     PACKAGE,
     goal_fact,
@@ -8,7 +8,7 @@ from llmpas.examples.mobile.problem import (
     init_facts,
     make_problem,
 )
-from llmpas.examples.mobile.streams import (
+from llmpas.examples.mobile.mobile_streams import (
     DEFAULT_DEFERRED,
     STREAM_NAMES,
     KinParams,
@@ -21,7 +21,7 @@ from llmpas.examples.mobile.streams import (
     sample_pose,
     test_cfree_pose_pose,
 )
-from llmpas.examples.mobile.world import (
+from llmpas.examples.mobile.mobile_world import (
     ArmTraj,
     BaseConf,
     BaseTraj,

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from llmpas.examples.mobile.geometry import Box, FloatArray, wrap_angle
-from llmpas.examples.mobile.world import BaseConf, Grasp, JointConf, ObjectSpec, ObjPose
+from llmpas.examples.mobile.mobile_geometry import Box, FloatArray, wrap_angle
+from llmpas.examples.mobile.mobile_world import BaseConf, Grasp, JointConf, ObjectSpec, ObjPose
 
 SHOULDER_HEIGHT = 1.0
 SHOULDER_FORWARD = 0.2  # the shoulder sits this far ahead of the base centre

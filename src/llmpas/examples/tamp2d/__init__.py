@@ -1,7 +1,7 @@
 """A 2-D continuous pick-and-place domain: blocks of different widths on a long table."""
 
-from llmpas.examples.tamp2d.problem import PACKAGE, goal_facts, init_facts, make_problem
-from llmpas.examples.tamp2d.streams import (
+from llmpas.examples.tamp2d.tamp2d_problem import PACKAGE, goal_facts, init_facts, make_problem
+from llmpas.examples.tamp2d.tamp2d_streams import (
     STREAM_NAMES,
     distance,
     implementations,
@@ -10,7 +10,7 @@ from llmpas.examples.tamp2d.streams import (
     sample_pose,
     test_cfree,
 )
-from llmpas.examples.tamp2d.world import (
+from llmpas.examples.tamp2d.tamp2d_world import (
     BlockSpec,
     Conf,
     Interval,

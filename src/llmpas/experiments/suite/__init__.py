@@ -54,7 +54,17 @@ from the anomaly state, the loop ended reporting the task done within its budget
 AND the success condition holds on the simulator's TRUE final state.
 """
 
-from llmpas.experiments.suite.checks import (
+from llmpas.experiments.suite.judge import (
+    Judgement,
+    Traced,
+    Verdict,
+    first_anomaly,
+    first_answer_goals,
+    judge,
+    resolution_length,
+    run_traced,
+)
+from llmpas.experiments.suite.task_checks import (
     HASH_SEEDS,
     NO_VERDICT,
     OPTIMAL_SEARCH,
@@ -72,17 +82,7 @@ from llmpas.experiments.suite.checks import (
     planner_limit,
     replan_issues,
 )
-from llmpas.experiments.suite.judge import (
-    Judgement,
-    Traced,
-    Verdict,
-    first_anomaly,
-    first_answer_goals,
-    judge,
-    resolution_length,
-    run_traced,
-)
-from llmpas.experiments.suite.tasks import (
+from llmpas.experiments.suite.task_files import (
     ANOMALY_KINDS,
     HALVES,
     JUDGE_FIELDS,
@@ -104,7 +104,7 @@ from llmpas.experiments.suite.tasks import (
     task_from_dict,
 )
 from llmpas.experiments.suite.truth import holds_in_truth
-from llmpas.experiments.suite.validate import Validation, validate_folder
+from llmpas.experiments.suite.validate_data import Validation, validate_folder
 
 __all__ = [
     "ANOMALY_KINDS",

@@ -10,22 +10,22 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
-from llmpas.execution.anomaly import AnomalyReport
+from llmpas.execution.anomaly_report import AnomalyReport
 from llmpas.experiments.effective import (
     is_effective,
     lost_object,
 )
-from llmpas.experiments.suite.tasks import Category, SuiteTask
+from llmpas.experiments.suite.task_files import Category, SuiteTask
 from llmpas.experiments.suite.truth import holds_in_truth
 from llmpas.experiments.worlds import LoopConfig
 from llmpas.language.logic import Atom, Not
-from llmpas.reasoning.goals import GoalParse, GoalStatus, Literal
+from llmpas.reasoning.goal_reading import GoalParse, GoalStatus, Literal
 from llmpas.reasoning.llm import LLM
 from llmpas.reasoning.methods import Proposal, Situation, answer_reader
 from llmpas.reasoning.replan import task_literals
 from llmpas.system import LLMFor, LoopResult, run
-from llmpas.worlds.household.plugin import WORLD, HouseholdSession, household_for
-from llmpas.worlds.household.reasoning import PROGRAM_CALLS, vocabulary
+from llmpas.worlds.household.household_plugin import WORLD, HouseholdSession, household_for
+from llmpas.worlds.household.household_reasoning import PROGRAM_CALLS, vocabulary
 from llmpas.worlds.household.sim import HouseholdWorld
 from llmpas.worlds.kitchen.belief import DETECTION
 

@@ -4,9 +4,9 @@ from llmpas.worlds.api import WorldEntry
 
 WORLD_ENTRY = WorldEntry(
     "household",
-    "llmpas.worlds.household.plugin:WORLD",
+    "llmpas.worlds.household.household_plugin:WORLD",
     oracle="llmpas.worlds.household.household_oracle:oracle",
     rank=0,
     help="a household scenario name, or a household .toml",
-    files="llmpas.worlds.household.plugin:scenario_path",
+    files="llmpas.worlds.household.household_plugin:scenario_path",
 )

@@ -6,7 +6,7 @@ from __future__ import annotations
 from llmpas.language.logic import Atom, Not, atoms_of
 from llmpas.language.problem import parse_formula
 from llmpas.reasoning.truth_oracle import TruthOracle
-from llmpas.worlds.household.plugin import HouseholdSession
+from llmpas.worlds.household.household_plugin import HouseholdSession
 from llmpas.worlds.household.sim import HouseholdWorld
 from llmpas.worlds.household.state import (
     HIDDEN,

@@ -117,9 +117,9 @@ from typing import Any
 
 from llmpas.errors import InputError
 from llmpas.inputs import read_toml
+from llmpas.worlds.household.household_values import BaseConf, Placement
 from llmpas.worlds.household.layout import Layout, ObjectSpec, default_objects, kitchen
 from llmpas.worlds.household.state import TrueState
-from llmpas.worlds.household.values import BaseConf, Placement
 
 SKILLS = ("move_base", "move_arm", "grasp", "release", "open", "close", "process", "look")
 EVENT_TYPES = ("move", "occupy", "set_property", "clear_property")

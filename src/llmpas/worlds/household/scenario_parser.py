@@ -9,8 +9,9 @@ from collections.abc import Mapping
 from typing import Any
 
 from llmpas.fields import show
-from llmpas.language.errors import PddlSyntaxError
+from llmpas.language.language_errors import PddlSyntaxError
 from llmpas.language.sexpr import SList, Sym, parse_all
+from llmpas.worlds.household.household_values import BaseConf
 from llmpas.worlds.household.scenario import (
     DISTURBANCE_KINDS,
     EVENT_TYPES,
@@ -28,7 +29,6 @@ from llmpas.worlds.household.scenario import (
 )
 from llmpas.worlds.household.scenario_places import _OBJECT_FIELDS, PlaceFields
 from llmpas.worlds.household.state import STATES, TrueState
-from llmpas.worlds.household.values import BaseConf
 
 _names = name_list
 _fmt = show

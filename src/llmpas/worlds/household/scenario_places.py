@@ -10,6 +10,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from llmpas.fields import Fields, show
+from llmpas.worlds.household.household_values import BaseConf, Placement
 from llmpas.worlds.household.layout import Layout, ObjectSpec
 from llmpas.worlds.household.scenario import (
     BeliefObject,
@@ -18,7 +19,6 @@ from llmpas.worlds.household.scenario import (
     name_list,
 )
 from llmpas.worlds.household.state import HIDDEN, STATES, TrueState, base_collision
-from llmpas.worlds.household.values import BaseConf, Placement
 
 _names = name_list
 _fmt = show

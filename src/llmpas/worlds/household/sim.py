@@ -1,5 +1,5 @@
-"""The household simulator: a :class:`~llmpas.execution.world.Robot` and
-:class:`~llmpas.execution.world.Perception` over a hidden :class:`TrueState`.
+"""The household simulator: a :class:`~llmpas.execution.robot_protocols.Robot` and
+:class:`~llmpas.execution.robot_protocols.Perception` over a hidden :class:`TrueState`.
 
 The robot acts on the true state and sees it only through :meth:`HouseholdWorld.look` (noisy,
 with misdetections) and through its skills' outcomes. Scenario events change the true state
@@ -31,7 +31,8 @@ from typing import Any
 
 import numpy as np
 
-from llmpas.execution.world import Detection, Observation, SkillResult
+from llmpas.execution.robot_protocols import Detection, Observation, SkillResult
+from llmpas.worlds.household.household_values import ArmTarget, BaseConf, Grasp, Motion, Placement
 from llmpas.worlds.household.layout import Layout, kitchen
 from llmpas.worlds.household.scenario import Disturbance, Event, Scenario
 from llmpas.worlds.household.state import (
@@ -46,7 +47,6 @@ from llmpas.worlds.household.state import (
     point_rect_distance,
     segment_rect_distance,
 )
-from llmpas.worlds.household.values import ArmTarget, BaseConf, Grasp, Motion, Placement
 
 GRASP_TOLERANCE = 0.03
 """How far (m, plus the object's radius) the gripper may be from an object to grasp it, or from

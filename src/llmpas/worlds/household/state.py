@@ -20,8 +20,8 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 
 from llmpas.language.logic import Atom
+from llmpas.worlds.household.household_values import BaseConf, Placement
 from llmpas.worlds.household.layout import Layout, ObjectSpec, Rect
-from llmpas.worlds.household.values import BaseConf, Placement
 
 PROPERTIES = frozenset(
     {"dirty", "cleaned", "cooked", "heated", "cooled", "hot", "wet", "broken", "spilled"}

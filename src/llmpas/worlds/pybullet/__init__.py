@@ -18,7 +18,7 @@ from llmpas.worlds.api import WorldEntry
 
 WORLD_ENTRY = WorldEntry(
     "pybullet",
-    "llmpas.worlds.pybullet.plugin:WORLD",
+    "llmpas.worlds.pybullet.pybullet_plugin:WORLD",
     oracle="llmpas.worlds.pybullet.pybullet_oracle:oracle",
     rank=1,
     help="object-loss, action-blocking (PyBullet Husky + Panda)",

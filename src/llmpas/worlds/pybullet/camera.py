@@ -18,9 +18,9 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
-from llmpas.execution.world import Detection, Observation
+from llmpas.execution.robot_protocols import Detection, Observation
+from llmpas.worlds.pybullet.pybullet_values import ObjectPose, Vector
 from llmpas.worlds.pybullet.scene import HAND_LINK, RIM_MARGIN, Scene
-from llmpas.worlds.pybullet.values import ObjectPose, Vector
 
 MAST = (0.05, 0.0, 1.25)  # the head on the Husky (base frame)
 

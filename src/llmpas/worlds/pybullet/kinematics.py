@@ -19,8 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
+from llmpas.worlds.pybullet.pybullet_values import Vector
 from llmpas.worlds.pybullet.scene import ARM_JOINTS, EE_LINK, HOME_CONF, Scene
-from llmpas.worlds.pybullet.values import Vector
 
 log = logging.getLogger(__name__)
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from llmpas.language.logic import Atom, Not
 from llmpas.reasoning.truth_oracle import TruthOracle
-from llmpas.worlds.pybullet.plugin import PyBulletSession
-from llmpas.worlds.pybullet.run import bottom, over
+from llmpas.worlds.pybullet.pybullet_plugin import PyBulletSession
+from llmpas.worlds.pybullet.pybullet_scenarios import bottom, over
 from llmpas.worlds.pybullet.scene import RIM_MARGIN, Scene
 
 

@@ -26,9 +26,9 @@ from llmpas.worlds.pybullet.kinematics import (
     solve_ik,
     top_grasp_orientation,
 )
-from llmpas.worlds.pybullet.motion import MotionConfig, Pose2, plan_arm
+from llmpas.worlds.pybullet.pybullet_motion import MotionConfig, Pose2, plan_arm
+from llmpas.worlds.pybullet.pybullet_values import ObjectPose, Vector
 from llmpas.worlds.pybullet.scene import FINGER_OPEN, HOME_CONF, Scene
-from llmpas.worlds.pybullet.values import ObjectPose, Vector
 
 log = logging.getLogger(__name__)
 

@@ -62,7 +62,7 @@ def is_blank(rgb: np.ndarray, min_std: float = 5.0) -> bool:
 
 class Shot(Protocol):
     """A labelled image made at a mark (episodes executed before it, timeline events before it):
-    a :class:`~llmpas.worlds.pybullet.world.Frame`."""
+    a :class:`~llmpas.worlds.pybullet.pybullet_robot.Frame`."""
 
     label: str
     rgb: np.ndarray

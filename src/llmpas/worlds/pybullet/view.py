@@ -10,8 +10,8 @@ import pybullet as p
 
 from llmpas.execution.context import Belief
 from llmpas.worlds.api import Pose3, SceneView, Shape
+from llmpas.worlds.pybullet.pybullet_values import ObjectPose
 from llmpas.worlds.pybullet.scene import COLOURS, TABLE_TOP, Scene
-from llmpas.worlds.pybullet.values import ObjectPose
 
 _TABLE = (0.55, 0.42, 0.3, 1.0)
 _SLAB = 0.04  # the drawn thickness of a table top

@@ -5,4 +5,4 @@ It is a robot like any other to the client (:mod:`llmpas.worlds.ros2`), which ne
 
 from llmpas.worlds.api import RobotEntry
 
-ROBOT_ENTRY = RobotEntry("pybullet", "llmpas.worlds.pybullet_ros2.command:run")
+ROBOT_ENTRY = RobotEntry("pybullet", "llmpas.worlds.pybullet_ros2.robot_command:run")

@@ -1,6 +1,7 @@
 """The PyBullet Husky + Panda as a ROS 2 robot, in a process of its own.
 
-It serves, from the simulator (:class:`~llmpas.worlds.pybullet.world.PyBulletWorld`, seeded as
+It serves, from the simulator (:class:`~llmpas.worlds.pybullet.pybullet_robot.PyBulletWorld`,
+seeded as
 in-process):
 
 - ``navigate_to_pose`` (``nav2_msgs/action/NavigateToPose``): drive the base (a collision-free
@@ -36,11 +37,11 @@ from typing import Any
 
 import numpy as np
 
-from llmpas.execution.world import Detection, Observation, SkillResult
-from llmpas.worlds.pybullet.run import PyBulletScenario, resolve, setup_scene
+from llmpas.execution.robot_protocols import Detection, Observation, SkillResult
+from llmpas.worlds.pybullet.pybullet_robot import PyBulletWorld
+from llmpas.worlds.pybullet.pybullet_scenarios import PyBulletScenario, resolve, setup_scene
+from llmpas.worlds.pybullet.pybullet_values import ArmGoal, Grasp
 from llmpas.worlds.pybullet.scene import FINGER_OPEN, Scene, open_client
-from llmpas.worlds.pybullet.values import ArmGoal, Grasp
-from llmpas.worlds.pybullet.world import PyBulletWorld
 from llmpas.worlds.pybullet_ros2 import standard
 from llmpas.worlds.ros2 import convert
 from llmpas.worlds.ros2.env import RosEnv, reclaim_shared_memory
@@ -72,7 +73,7 @@ class Faults:
 
 def build_world(scenario: PyBulletScenario, seed: int, client: int) -> PyBulletWorld:
     """The simulator as the in-process session builds it (the same seeded generators)."""
-    from llmpas.worlds.pybullet.plugin import WORLD as PYBULLET
+    from llmpas.worlds.pybullet.pybullet_plugin import WORLD as PYBULLET
 
     scene = Scene(client, scenario.scene)
     setup_scene(scene, scenario)

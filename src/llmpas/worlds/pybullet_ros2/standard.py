@@ -12,10 +12,10 @@ from typing import Any
 import numpy as np
 import pybullet_data
 
-from llmpas.execution.world import Observation, SkillResult
+from llmpas.execution.robot_protocols import Observation, SkillResult
 from llmpas.worlds.pybullet.camera import MAST, detect, look_at, wrist_image
+from llmpas.worlds.pybullet.pybullet_robot import PyBulletWorld
 from llmpas.worlds.pybullet.scene import MOUNT_OFFSET, TABLE_TOP
-from llmpas.worlds.pybullet.world import PyBulletWorld
 from llmpas.worlds.ros2.nav2 import NO_VALID_PATH, nav2_reason
 from llmpas.worlds.ros2.profile import RobotProfile
 from llmpas.worlds.ros2.tf import Transform

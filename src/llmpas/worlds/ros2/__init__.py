@@ -6,7 +6,7 @@ from llmpas.worlds.api import WorldEntry
 
 WORLD_ENTRY = WorldEntry(
     "ros2",
-    "llmpas.worlds.ros2.plugin:WORLD",
+    "llmpas.worlds.ros2.ros2_plugin:WORLD",
     oracle="llmpas.worlds.pybullet.pybullet_oracle:oracle",  # the simulated robot's truth
     rank=3,
     sites=True,

@@ -1,7 +1,7 @@
 """The robot and its perception over ROS 2: every skill the executor calls is an action goal.
 
-:class:`RosRobot` is an :class:`~llmpas.execution.world.Robot` and a
-:class:`~llmpas.execution.world.Perception` whose calls become goals of the robot's action
+:class:`RosRobot` is an :class:`~llmpas.execution.robot_protocols.Robot` and a
+:class:`~llmpas.execution.robot_protocols.Perception` whose calls become goals of the robot's action
 servers (names in :mod:`llmpas.worlds.ros2.names`): the base is Nav2's ``NavigateToPose``, the
 arm's named configuration (home) ros2_control's ``FollowJointTrajectory``, the rest the project's
 ``Skill`` and ``Look`` actions. A skill sends its goal and returns a :class:`RosGoal`, the
@@ -25,9 +25,9 @@ from dataclasses import dataclass
 from typing import Any, TypeVar
 
 from llmpas.errors import RobotLostError
-from llmpas.execution.world import Observation, Outcome, SkillResult, finish
+from llmpas.execution.robot_protocols import Observation, Outcome, SkillResult, finish
+from llmpas.worlds.pybullet.pybullet_values import ArmGoal, BaseConf, ObjectPose
 from llmpas.worlds.pybullet.scene import Scene
-from llmpas.worlds.pybullet.values import ArmGoal, BaseConf, ObjectPose
 from llmpas.worlds.ros2 import convert
 from llmpas.worlds.ros2.names import ACTIONS, FJT, GRIPPER, LOOK, NAV, SKILL, STATE, action_names
 from llmpas.worlds.ros2.profile import RobotProfile

@@ -10,9 +10,9 @@ from typing import Any
 
 import pybullet as p
 
-from llmpas.execution.world import Detection, Observation
+from llmpas.execution.robot_protocols import Detection, Observation
+from llmpas.worlds.pybullet.pybullet_values import ArmGoal, BaseConf, Grasp, ObjectPose
 from llmpas.worlds.pybullet.scene import Scene
-from llmpas.worlds.pybullet.values import ArmGoal, BaseConf, Grasp, ObjectPose
 
 FRAME = "map"
 PANDA_JOINTS = tuple(f"panda_joint{i}" for i in range(1, 8))

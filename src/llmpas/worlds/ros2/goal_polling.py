@@ -13,7 +13,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from llmpas.execution.world import SkillResult
+from llmpas.execution.robot_protocols import SkillResult
 
 if TYPE_CHECKING:  # the robot these steps drive
     from llmpas.worlds.ros2.standard_robot import StandardRobot

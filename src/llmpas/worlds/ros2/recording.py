@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from llmpas.files import atomic_write
-from llmpas.worlds.ros2.record import McapRecorder, type_name
+from llmpas.worlds.ros2.rosbag import McapRecorder, type_name
 
 BAG = "ros.mcap"
 

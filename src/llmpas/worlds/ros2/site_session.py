@@ -19,7 +19,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from llmpas.execution.anomaly import AnomalyReport
+from llmpas.execution.anomaly_report import AnomalyReport
 from llmpas.execution.context import Belief, Context
 from llmpas.execution.csubbt import SubtreeSpec
 from llmpas.execution.executor import ExecutorConfig
@@ -28,23 +28,23 @@ from llmpas.language.problem import Problem
 from llmpas.planning.result import Plan
 from llmpas.worlds.api import RunOptions, holds
 from llmpas.worlds.kitchen import load_domain
-from llmpas.worlds.kitchen.session import PLANNER, KitchenSearch, KitchenSession
-from llmpas.worlds.pybullet.decomposition import build_specs, table_of
+from llmpas.worlds.kitchen.kitchen_session import PLANNER, KitchenSearch, KitchenSession
 from llmpas.worlds.pybullet.facts import true_facts
-from llmpas.worlds.pybullet.problem import (
+from llmpas.worlds.pybullet.pybullet_decomposition import build_specs, table_of
+from llmpas.worlds.pybullet.pybullet_problem import (
     believe_base,
     initial_belief,
     make_problem,
     static_facts,
 )
-from llmpas.worlds.pybullet.reasoning import environment, prompt_tables, vocabulary
+from llmpas.worlds.pybullet.pybullet_reasoning import environment, prompt_tables, vocabulary
+from llmpas.worlds.pybullet.pybullet_streams import Geometry
+from llmpas.worlds.pybullet.pybullet_values import BaseConf, ObjectPose
 from llmpas.worlds.pybullet.scene import TABLE_TOP, Scene, SceneConfig
-from llmpas.worlds.pybullet.streams import Geometry
-from llmpas.worlds.pybullet.values import BaseConf, ObjectPose
 from llmpas.worlds.ros2.client import RobotUnavailableError
-from llmpas.worlds.ros2.record import McapRecorder
 from llmpas.worlds.ros2.recording import BAG, Recording
 from llmpas.worlds.ros2.robot_model import DescriptionError, arm_model
+from llmpas.worlds.ros2.rosbag import McapRecorder
 from llmpas.worlds.ros2.site import Site, SiteError, Task
 from llmpas.worlds.ros2.site_scene import SiteScene, object_config
 from llmpas.worlds.ros2.standard_robot import StandardRobot

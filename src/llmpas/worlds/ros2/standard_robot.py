@@ -30,12 +30,12 @@ from typing import Any, TypeVar
 import numpy as np
 
 from llmpas.errors import RobotLostError
-from llmpas.execution.world import Detection, Observation, SkillResult
+from llmpas.execution.robot_protocols import Detection, Observation, SkillResult
 from llmpas.worlds.pybullet.camera import RIM_MARGIN
+from llmpas.worlds.pybullet.pybullet_robot import goal_height, look_orientation, near_graspable
+from llmpas.worlds.pybullet.pybullet_values import ArmGoal, BaseConf, ObjectPose
 from llmpas.worlds.pybullet.scene import TABLE_TOP, Scene
 from llmpas.worlds.pybullet.skills import Skills
-from llmpas.worlds.pybullet.values import ArmGoal, BaseConf, ObjectPose
-from llmpas.worlds.pybullet.world import goal_height, look_orientation, near_graspable
 from llmpas.worlds.ros2 import convert
 from llmpas.worlds.ros2.client import RobotUnavailableError, Timeouts
 from llmpas.worlds.ros2.goal_polling import Later, Send, Step, Steps, stamp_seconds

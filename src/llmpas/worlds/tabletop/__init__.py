@@ -17,7 +17,7 @@ from llmpas.worlds.api import WorldEntry
 
 WORLD_ENTRY = WorldEntry(
     "tabletop",
-    "llmpas.worlds.tabletop.session:WORLD",
+    "llmpas.worlds.tabletop.tabletop_session:WORLD",
     oracle="llmpas.worlds.tabletop.tabletop_oracle:oracle",
     rank=2,
     help="tabletop-blocking (a fixed Panda)",
@@ -29,7 +29,7 @@ _LAZY = ("WORLD", "TabletopSession", "TabletopWorld")
 def __getattr__(name: str) -> Any:
     """The session module's names, imported on first use (it loads PyBullet's parts)."""
     if name in _LAZY:
-        return getattr(importlib.import_module("llmpas.worlds.tabletop.session"), name)
+        return getattr(importlib.import_module("llmpas.worlds.tabletop.tabletop_session"), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 

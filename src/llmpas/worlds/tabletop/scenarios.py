@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass
 
 from llmpas.reasoning.tables import PromptTables
-from llmpas.worlds.pybullet.reasoning import PROGRAM_CALLS, vocabulary
+from llmpas.worlds.pybullet.pybullet_reasoning import PROGRAM_CALLS, vocabulary
 from llmpas.worlds.pybullet.scene import ObjectConfig, Rect, SceneConfig, TableConfig
 
 TABLE = "table"

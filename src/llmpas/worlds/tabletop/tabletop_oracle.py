@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from llmpas.language.logic import Atom, Not
 from llmpas.reasoning.truth_oracle import TruthOracle
-from llmpas.worlds.tabletop.session import TabletopSession
+from llmpas.worlds.tabletop.tabletop_session import TabletopSession
 
 
 class TabletopOracle(TruthOracle):
