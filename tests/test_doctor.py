@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from llmpas import doctor
 from llmpas.cli import main
-from llmpas.doctor import Check, Verdict
+from llmpas.commands import doctor
+from llmpas.commands.doctor import Check, Verdict
 
 
 def test_a_missing_model_is_required_and_names_its_install_command(

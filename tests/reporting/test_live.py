@@ -241,7 +241,7 @@ def test_a_run_without_live_starts_no_server(
     seen: list[set[int]] = []
     import importlib
 
-    entry = importlib.import_module("llmpas.system.run")  # not llmpas.system.run, a function
+    entry = importlib.import_module("llmpas.system.entry_points")
     save = entry.save_records
 
     def spy(result: Any, folder: Any) -> Any:  # every step of the run: nothing listens

@@ -1,8 +1,7 @@
 """``llmpas run``: the closed loop on a registered world's scenario with an ``--llm`` of the
-product's registry (:mod:`llmpas.system.catalog`). It imports nothing from :mod:`llmpas.experiments`
-(an import-linter contract), but one module by name: a household suite task file (a scenario
-with a ``[judge]`` table) is read with the suite's reader, :mod:`llmpas.experiments.suite`,
-when one is run."""
+product's registry (:mod:`llmpas.system.catalog`). It imports nothing from
+:mod:`llmpas.experiments` (an import-linter contract): a judged task file (a household scenario
+with a ``[judge]`` table) is read by its world (the registration's ``tasks`` hook)."""
 
 from __future__ import annotations
 
@@ -117,30 +116,17 @@ def _cmd_run(args: argparse.Namespace, console: Console) -> int:
 
 
 def _suite_task(world: str, path: str) -> tuple[Any, str | None]:
-    """A task file of the household suite (a scenario with a ``[judge]`` table) runs as
+    """A judged task file (for the household: a scenario with a ``[judge]`` table) runs as
     ``bench prompting`` runs it: its scenario, ended by its intent (``[judge] success``), so
     that the same task, seed and LLM give the same rounds in both. Anything else is returned
     as it is (no intent)."""
-    from llmpas.system.catalog import file_world
-
-    reader = file_world()
-    if reader is None or world != reader.name or not path.endswith(".toml"):
-        return path, None
-    from llmpas.inputs import read_toml
-
-    try:  # bounded, regular files only (a FIFO or a device is the scenario reader's to name)
-        is_task = "judge" in read_toml(path, "scenario")
-    except InputError:
-        return path, None  # the scenario reader reports it, naming the file and place
-    if not is_task:
-        return path, None
-    from llmpas.experiments.suite import SuiteError, load_task
+    from llmpas.system.catalog import judged_task
 
     try:
-        task = load_task(path)
-    except SuiteError as e:
+        found = judged_task(world, path)
+    except InputError as e:
         raise CliError(str(e)) from None
-    return task.scenario, task.success
+    return (path, None) if found is None else found
 
 
 def _live_address(args: argparse.Namespace) -> Any:

@@ -14,7 +14,7 @@ from llmpas.errors import ExitCode
 
 
 def _cmd_model_install(args: argparse.Namespace, console: Console) -> int:
-    from llmpas.doctor import SELF_TEST_FIX
+    from llmpas.commands.doctor import SELF_TEST_FIX
     from llmpas.reasoning.backends.llamacpp import self_test
     from llmpas.reasoning.models import MODELS, install_with_progress
 
@@ -53,7 +53,7 @@ def add_model(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def _cmd_doctor(args: argparse.Namespace, console: Console) -> int:
-    from llmpas.doctor import Verdict, checks
+    from llmpas.commands.doctor import Verdict, checks
     from llmpas.reasoning.models import MODELS
 
     if args.model not in MODELS:

@@ -28,8 +28,8 @@ the LLM in a run; it imports no world. Its modules:
 - :mod:`~llmpas.system.search_memory`: the :class:`SearchMemory` (what was searched, what is left);
 - :mod:`~llmpas.system.records`: rounds, results (belief and truth side by side), the Markdown
   report and the run folder;
-- :mod:`~llmpas.system.run`: the entry points :func:`run` and :func:`run_once`, which judge the
-  task in the world's truth.
+- :mod:`~llmpas.system.entry_points`: the entry points :func:`run` and :func:`run_once`, which
+  judge the task in the world's truth.
 
 The belief carries over between rounds (what the robot saw while recovering is what lets it
 finish the task); the world's truth is read only by the truth judge (after the loop) and by a

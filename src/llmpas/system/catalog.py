@@ -73,6 +73,17 @@ def file_world() -> WorldEntry | None:
     return next((e for e in worlds().values() if e.files), None)
 
 
+def judged_task(world: str, path: str) -> tuple[Any, str] | None:
+    """A judged task file of ``world`` (its registration's ``tasks`` hook): its scenario and its
+    intent; None when the world reads no judged tasks or the file is not one. A broken task is
+    the world's one-line :class:`~llmpas.errors.InputError`."""
+    entry = worlds().get(world)
+    if entry is None or not entry.tasks or not path.endswith(".toml"):
+        return None
+    found: tuple[Any, str] | None = _attr(entry.tasks, "tasks")(path)
+    return found
+
+
 def site_world() -> WorldEntry | None:
     """The shipped world that reads a site file (``--site``)."""
     return next((e for e in worlds().values() if e.sites), None)

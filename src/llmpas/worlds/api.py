@@ -64,8 +64,10 @@ class WorldEntry:
     stands when worlds are listed (help, errors), lowest first; ``help``: its scenarios as the
     command line's help says them (empty: not named in the help); ``files``: ``module:ATTR`` of
     a function of a scenario name or ``.toml`` path to that file, for the world that reads
-    scenario files (one at most: a ``.toml`` file is its scenario); ``sites``: it reads a site
-    file (``--site``)."""
+    scenario files (one at most: a ``.toml`` file is its scenario); ``tasks``: ``module:ATTR`` of
+    a function of such a file to its scenario and its intent when the file is a judged task
+    (else None: ``llmpas run`` runs a judged task as ``llmpas bench prompting`` does);
+    ``sites``: it reads a site file (``--site``)."""
 
     name: str
     world: str
@@ -73,12 +75,13 @@ class WorldEntry:
     rank: int = 100
     help: str = ""
     files: str = ""
+    tasks: str = ""
     sites: bool = False
 
     def __post_init__(self) -> None:
         if not self.name or ":" in self.name:
             raise ValueError(f"a world's name is a word without ':', got {self.name!r}")
-        for spec in (self.world, self.oracle or "m:a", self.files or "m:a"):
+        for spec in (self.world, self.oracle or "m:a", self.files or "m:a", self.tasks or "m:a"):
             module, _, attr = spec.partition(":")
             if not module or not attr:
                 raise ValueError(f"world {self.name}: expected module:ATTR, got {spec!r}")

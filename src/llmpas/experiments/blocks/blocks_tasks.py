@@ -20,14 +20,19 @@ from llmpas import inputs
 from llmpas.errors import InputError
 from llmpas.examples._files import read_text
 from llmpas.examples.blocksworld import PACKAGE, problem_text
+from llmpas.experiments.blocks.plans import Step, simulate
+from llmpas.experiments.blocks.roles import (
+    SHIPPED_ROLES,
+    BlocksRoles,
+    RolesError,
+    detect_roles,
+    goal_words,
+)
 from llmpas.language.domain import Domain, parse_domain
 from llmpas.language.logic import Atom, Not, conjuncts
 from llmpas.language.problem import Problem, parse_problem_text
 from llmpas.language.streams import EMPTY_STREAMS
 from llmpas.planning.downward import ClassicalStatus, DownwardConfig, FastDownward
-
-from .plans import Step, simulate
-from .roles import SHIPPED_ROLES, BlocksRoles, RolesError, detect_roles, goal_words
 
 log = logging.getLogger(__name__)
 

@@ -21,13 +21,27 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
+from llmpas.experiments.blocks.blocks_tasks import (
+    Task,
+    actions_text,
+    facts_text,
+    goal_text,
+    state_words,
+    task_words,
+)
+from llmpas.experiments.blocks.plans import (
+    Outcome,
+    Step,
+    Verdict,
+    judge,
+    parse_plan,
+    plan_gbnf,
+    plan_text,
+)
+from llmpas.experiments.blocks.roles import BlocksRoles, detect_roles
 from llmpas.language.problem import Problem
 from llmpas.reasoning.llm import LLM, Message, Request, Response
 from llmpas.reasoning.methods import template
-
-from .plans import Outcome, Step, Verdict, judge, parse_plan, plan_gbnf, plan_text
-from .roles import BlocksRoles, detect_roles
-from .tasks import Task, actions_text, facts_text, goal_text, state_words, task_words
 
 METHODS = ("oracle", "llm-ic", "copal", "flp")
 LLM_METHODS = ("llm-ic", "copal", "flp")

@@ -1,10 +1,12 @@
 """The household anomaly suite: one TOML file per task, the judge that decides whether a run
 resolved its anomaly, and the checks of ``llmpas bench validate-data``.
 
-The package's modules are its five jobs: :mod:`~.tasks` (the task format and its reader),
+The package's modules are its five jobs: :mod:`~.task_files` (the suite's task folders; the
+format is the household world's, :mod:`llmpas.worlds.household.household_tasks`),
 :mod:`~.truth` (the success condition on the true state), :mod:`~.judge` (judging a run),
-:mod:`~.checks` (the checks of one task that need runs) and :mod:`~.validate` (``llmpas bench
-validate-data``). Every name is importable from here, as it was from the one module before.
+:mod:`~.task_checks` (the checks of one task that need runs) and :mod:`~.validate_data`
+(``llmpas bench validate-data``). Every name is importable from here, as it was from the one
+module before.
 
 Format of a task file (``suite/household/*.toml``; see ``suite/README.md``): a household
 scenario exactly as :mod:`llmpas.worlds.household.scenario` reads it — the TRUE initial world
@@ -85,9 +87,7 @@ from llmpas.experiments.suite.task_checks import (
 from llmpas.experiments.suite.task_files import (
     ANOMALY_KINDS,
     HALVES,
-    JUDGE_FIELDS,
     MINIMUM_COUNTS,
-    SUCCESS_PREDICATES,
     SUITE_B_DIGEST,
     SUITE_B_DIR,
     SUITE_DIR,
@@ -105,6 +105,7 @@ from llmpas.experiments.suite.task_files import (
 )
 from llmpas.experiments.suite.truth import holds_in_truth
 from llmpas.experiments.suite.validate_data import Validation, validate_folder
+from llmpas.worlds.household.household_tasks import JUDGE_FIELDS, SUCCESS_PREDICATES
 
 __all__ = [
     "ANOMALY_KINDS",

@@ -1,31 +1,29 @@
-"""The suite's task format: one TOML file per task, a household scenario plus a ``[judge]``
-table (see the package's documentation and ``household/README.md``), read and checked here, its
-fields with the readers the scenario parser uses (:class:`llmpas.fields.Fields`)."""
+"""The suite's tasks: folders of judged household task files (the format is the household
+world's, :mod:`llmpas.worlds.household.household_tasks`), their effective goal sets read as
+answers, the suites' halves and digests."""
 
 from __future__ import annotations
 
-import enum
 import hashlib
 import logging
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
-from llmpas.errors import InputError
 from llmpas.experiments.effective import (
     EffectiveSetError,
     parse_set,
 )
-from llmpas.fields import Fields
-from llmpas.inputs import TOML_LIMIT, decode_text, parse_toml, read_bytes
-from llmpas.language.language_errors import PddlSyntaxError
-from llmpas.language.sexpr import SList, Sym, parse_all
 from llmpas.reasoning.goal_reading import Literal
+from llmpas.worlds.household import household_tasks
 from llmpas.worlds.household.household_plugin import household_for
 from llmpas.worlds.household.household_reasoning import vocabulary
-from llmpas.worlds.household.layout import kitchen
-from llmpas.worlds.household.scenario import Scenario, ScenarioError
+from llmpas.worlds.household.household_tasks import (
+    Category,
+    HouseholdTask,
+    TaskFileError,
+)
 from llmpas.worlds.household.state import HIDDEN
 
 log = logging.getLogger(__name__)
@@ -69,16 +67,6 @@ def suite_digest(folder: Path) -> str:
     return h.hexdigest()
 
 
-class Category(enum.Enum):
-    OBJECT_LOSS = "object-loss"
-    ACTION_BLOCKING = "action-blocking"
-    STATE_CHANGE = "state-change"
-
-    @property
-    def title(self) -> str:
-        return self.value.replace("-", " ").title()
-
-
 MINIMUM_COUNTS: Mapping[Category, int] = {
     Category.OBJECT_LOSS: 20,
     Category.ACTION_BLOCKING: 20,
@@ -119,47 +107,25 @@ UNMODELLED_CAUSES: Mapping[Category, frozenset[str]] = {
 model, whose reason code (the world's log) is one of these: the cause is in the failure's text
 only, never in the belief."""
 
-JUDGE_FIELDS = ("category", "l_gt", "success", "effective", "measures_llm")
-SUCCESS_PREDICATES: Mapping[str, int] = {
-    "on": 2,
-    "holding": 1,
-    "open": 1,
-    "dirty": 1,
-    "cleaned": 1,
-    "cooked": 1,
-    "heated": 1,
-    "cooled": 1,
-}
-
-
-class SuiteError(InputError):
-    """A task file that cannot be loaded: ``file: field: message`` on one line."""
-
-
 # ------------------------------------------------------------------------------------ tasks
 
 
-@dataclass(frozen=True)
-class SuiteTask:
-    """One task of the suite: a scenario plus how to judge it."""
+SuiteError = TaskFileError
+"""A task file (or a suite folder) that cannot be loaded: one line per file."""
 
-    name: str
-    category: Category
-    l_gt: int
-    success: str  # PDDL formula checked on the true final state
-    scenario: Scenario = field(repr=False)
-    source: str = "<task>"
-    digest: str = ""  # sha256 of the file's text (cache keys change when the file does)
-    effective: tuple[str, ...] = ()  # goal sets an expert accepts (PDDL conjunctions)
-    measures_llm: bool = False  # in the suite that measures the LLM (replan must fail it)
+
+@dataclass(frozen=True)
+class SuiteTask(HouseholdTask):
+    """One task of the suite: a judged household task whose effective goal sets parse as
+    answers would (the task's goal vocabulary)."""
 
     def __post_init__(self) -> None:
-        if self.l_gt < 1:
-            raise ValueError(f"{self.source}: judge.l_gt must be >= 1, got {self.l_gt}")
-        if self.name != self.scenario.name:
-            raise ValueError(f"{self.source}: name {self.name!r} != {self.scenario.name!r}")
-        _success_formula(self.success, self.source, _known_names(self.scenario))
+        super().__post_init__()
         self.effective_sets()
+
+    @classmethod
+    def of(cls, task: HouseholdTask) -> SuiteTask:
+        return cls(**{f.name: getattr(task, f.name) for f in fields(task)})
 
     def effective_sets(self) -> tuple[tuple[Literal, ...], ...]:
         """The effective sets as literals (SuiteError naming the file and the set)."""
@@ -172,81 +138,23 @@ class SuiteTask:
                 raise SuiteError(f"{self.source}: judge.effective[{i}]: {e}") from None
         return tuple(out)
 
-    def search_places(self) -> tuple[str, ...]:
-        return household_for(self.scenario).search_places()
-
 
 def task_from_dict(
     data: Mapping[str, Any], *, source: str = "<task>", digest: str = ""
 ) -> SuiteTask:
-    """Check and build a task from parsed TOML: ``[judge]`` is taken out, the rest goes to the
-    scenario parser unchanged."""
-    rest = {k: v for k, v in data.items() if k != "judge"}
-    if "judge" not in data:
-        raise SuiteError(f"{source}: judge: missing (required): category, l_gt")
-    fields = Fields(source, SuiteError)  # the scenario parser's readers
-    judge_table = fields.table(data["judge"], "judge", JUDGE_FIELDS)
-    try:
-        scenario = Scenario.from_dict(rest, source=source)
-    except ScenarioError as e:
-        raise SuiteError(str(e)) from None
-    stem = Path(source).stem
-    if source.endswith(".toml") and scenario.name != stem:
-        raise SuiteError(f"{source}: name: {scenario.name!r} must be the file's stem {stem!r}")
-    raw_category = judge_table.get("category")
-    if raw_category is None:
-        raise SuiteError(f"{source}: judge.category: missing (required)")
-    try:
-        category = Category(raw_category)
-    except ValueError:
-        known = ", ".join(c.value for c in Category)
-        raise SuiteError(
-            f"{source}: judge.category: unknown category {raw_category!r}; categories: {known}"
-        ) from None
-    l_gt = judge_table.get("l_gt")
-    if l_gt is None:
-        raise SuiteError(f"{source}: judge.l_gt: missing (required)")
-    if isinstance(l_gt, bool) or not isinstance(l_gt, int) or l_gt < 1:
-        raise SuiteError(f"{source}: judge.l_gt: must be an integer >= 1, got {l_gt!r}")
-    success = judge_table.get("success", scenario.goal)
-    if not isinstance(success, str):
-        raise SuiteError(f"{source}: judge.success: must be PDDL text, got {success!r}")
-    _success_formula(success, source, _known_names(scenario))
-    effective = [
-        fields.string(e, f"judge.effective[{i}]")
-        for i, e in enumerate(fields.array(judge_table.get("effective", []), "judge.effective"))
-    ]
-    measures_llm = fields.boolean(judge_table.get("measures_llm", False), "judge.measures_llm")
-    return SuiteTask(
-        scenario.name,
-        category,
-        l_gt,
-        success.strip(),
-        scenario,
-        source,
-        digest,
-        tuple(e.strip() for e in effective),
-        measures_llm,
-    )
+    """Check and build a task from parsed TOML (:func:`household_tasks.task_from_dict`, and its
+    effective sets)."""
+    return SuiteTask.of(household_tasks.task_from_dict(data, source=source, digest=digest))
 
 
 def load_task(path: str | Path) -> SuiteTask:
     """Read and check one task file (:class:`SuiteError` names the file and the field)."""
-    source = str(path)
-    try:
-        raw = read_bytes(path, "task file", TOML_LIMIT)
-    except InputError as e:
-        raise SuiteError(str(e)) from None
-    return parse_task(raw, source)
+    return SuiteTask.of(household_tasks.load_task(path))
 
 
 def parse_task(raw: bytes, source: str) -> SuiteTask:
     """Check one task file's content (read elsewhere, e.g. by a cluster's driver)."""
-    try:
-        data = parse_toml(decode_text(raw, source, "task file"), source)
-    except InputError as e:
-        raise SuiteError(str(e)) from None
-    return task_from_dict(data, source=source, digest=hashlib.sha256(raw).hexdigest())
+    return SuiteTask.of(household_tasks.parse_task(raw, source))
 
 
 def task_files(folder: str | Path = SUITE_DIR) -> list[Path]:
@@ -284,49 +192,3 @@ def load_suite(
             )
     order = list(Category)
     return tuple(sorted(tasks, key=lambda t: (order.index(t.category), t.name)))
-
-
-# ---------------------------------------------------------------------------- the success check
-
-
-def _known_names(scenario: Scenario) -> set[str]:
-    layout = kitchen()
-    return {*scenario.specs, *layout.regions, *layout.furniture}
-
-
-def _success_formula(text: str, source: str, known: set[str]) -> SList:
-    where = f"{source}: judge.success"
-    try:
-        exprs = parse_all(text, "judge.success")
-    except PddlSyntaxError as e:
-        raise SuiteError(f"{where}: malformed PDDL: {e.message}") from None
-    if len(exprs) != 1 or not isinstance(exprs[0], SList):
-        raise SuiteError(f"{where}: must be one parenthesised PDDL formula")
-    _check_success(exprs[0], where, known)
-    return exprs[0]
-
-
-def _check_success(e: SList, where: str, known: set[str]) -> None:
-    head = e.head()
-    if head in ("and", "or"):
-        for item in e.items[1:]:
-            if not isinstance(item, SList):
-                raise SuiteError(f"{where}: ({head} ...) takes formulas, got {item}")
-            _check_success(item, where, known)
-        return
-    if head == "not":
-        if len(e.items) != 2 or not isinstance(e.items[1], SList):
-            raise SuiteError(f"{where}: (not ...) takes one formula")
-        _check_success(e.items[1], where, known)
-        return
-    if head is None or head not in SUCCESS_PREDICATES:
-        preds = ", ".join(sorted(SUCCESS_PREDICATES))
-        raise SuiteError(f"{where}: unknown predicate {head!r}; predicates: and, or, not, {preds}")
-    args = e.items[1:]
-    if len(args) != SUCCESS_PREDICATES[head]:
-        raise SuiteError(f"{where}: ({head} ...) takes {SUCCESS_PREDICATES[head]} argument(s)")
-    for a in args:
-        if not isinstance(a, Sym) or a.text not in known:
-            raise SuiteError(
-                f"{where}: unknown name {a} in ({head} ...); names: {', '.join(sorted(known))}"
-            )

@@ -9,4 +9,5 @@ WORLD_ENTRY = WorldEntry(
     rank=0,
     help="a household scenario name, or a household .toml",
     files="llmpas.worlds.household.household_plugin:scenario_path",
+    tasks="llmpas.worlds.household.household_tasks:judged",
 )
