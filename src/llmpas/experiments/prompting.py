@@ -28,6 +28,11 @@ What the LLM contributes, beside SR and ASPL:
   of the task's effective goal sets (``[judge] effective``; the rule:
   :mod:`llmpas.experiments.effective`), over the samples of tasks that list sets.
 
+Another world (``--world NAME``, default the household's suite): its shipped scenarios are the
+tasks, judged from the loop's own verdict against the world's truth
+(:mod:`llmpas.experiments.world_tasks`), the world's name the anomaly type's column, no ASPL (no
+``l_gt``) and no first-proposal effective rate (no effective sets).
+
 Each (method, task, sample) is a cached job (:mod:`llmpas.experiments.jobs`): an interrupted run
 resumes, ``jobs`` runs them in parallel processes. Writes ``prompting.md`` (Table II and the extra
 metrics), ``prompting.csv`` (one row per method and anomaly type), ``prompting.json`` (the same
