@@ -5,6 +5,7 @@ beside it in this module), one with a truth judge and one without."""
 
 from __future__ import annotations
 
+import json
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -104,9 +105,17 @@ def test_categories_keep_the_suites_order_then_the_worlds() -> None:
     assert found == [*titles, ("library", "library")]
 
 
-def _run(tmp_path: Path, world: str) -> tuple[dict[tuple[str, str], dict[str, Any]], str]:
+def _run(
+    tmp_path: Path, world: str, keep: bool = False
+) -> tuple[dict[tuple[str, str], dict[str, Any]], str]:
     config = PromptingConfig(
-        llm="oracle", methods=(), samples=1, world=world, out_dir=tmp_path, max_time=30.0
+        llm="oracle",
+        methods=(),
+        samples=1,
+        world=world,
+        out_dir=tmp_path,
+        max_time=30.0,
+        keep_runs=keep,
     )
     report = run_prompting(config, QUIET)
     samples = {(str(r["method"]), str(r["task"])): r for r in report.records}
@@ -114,7 +123,7 @@ def _run(tmp_path: Path, world: str) -> tuple[dict[tuple[str, str], dict[str, An
 
 
 def test_the_oracle_and_replan_rows_run_a_users_world(tmp_path: Path) -> None:
-    samples, table = _run(tmp_path, f"{HERE}:WORLD")
+    samples, table = _run(tmp_path, f"{HERE}:WORLD", keep=True)
     verdicts = {k: r["verdict"] for k, r in samples.items()}
     assert verdicts[("oracle", "atlas-on-shelf2")] == "success"
     assert verdicts[("replan", "atlas-on-shelf2")] == "not-done"
@@ -125,6 +134,10 @@ def test_the_oracle_and_replan_rows_run_a_users_world(tmp_path: Path) -> None:
     assert table.startswith(f"Prompting methods on the {HERE}:WORLD scenarios")
     assert "| oracle (upper bound) | 0.67 | — | — |" in table
     assert "judged on what the robot perceived" not in table
+    kept = sorted((tmp_path / "runs").glob("*/about.json"))  # one folder per sample
+    assert len(kept) == 6 and all(p.with_name("loop.json").is_file() for p in kept)
+    about = json.loads(kept[0].read_text())
+    assert about["world"] == f"{HERE}:WORLD" and about["task"] == "(and (delivered atlas))"
 
 
 def test_a_world_without_truth_is_judged_on_what_was_perceived(tmp_path: Path) -> None:
