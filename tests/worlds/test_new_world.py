@@ -3,7 +3,8 @@
 oracle beside it. Built here in a copy of the source tree, with no other file touched, it is
 found by name by the product's registry (:mod:`llmpas.system.catalog`), named in ``llmpas run``'s
 help, and run by ``llmpas run`` with the two recovery methods that ask no model (``oracle``,
-``replan``); ``llmpas run`` loads nothing of :mod:`llmpas.experiments`.
+``replan``); ``llmpas run`` loads nothing of :mod:`llmpas.experiments`. ``llmpas bench prompting
+--world library`` runs its scenarios as tasks with the same two rows and writes the table.
 
 The world's code is the in-memory library of ``tests/worlds/test_protocol.py`` (books on
 shelves, searched by ``(inspected SHELF)``), so the folder holds only what a world adds to be
@@ -11,6 +12,8 @@ shipped: its registration and its oracle."""
 
 from __future__ import annotations
 
+import csv
+import hashlib
 import os
 import shutil
 import subprocess
@@ -81,11 +84,27 @@ def tree(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return src
 
 
-def llmpas(src: Path, *argv: str) -> subprocess.CompletedProcess[str]:
+BENCH = """
+import sys
+import llmpas.system.catalog as catalog
+asked = []
+load = catalog.load_world
+def recorded(spec):
+    asked.append(spec)
+    return load(spec)
+catalog.load_world = recorded  # before any module takes it: every world the run asked for
+from llmpas.cli import main
+code = main(sys.argv[1:])
+print("worlds loaded:", sorted(set(asked)))
+sys.exit(code)
+"""
+
+
+def llmpas(src: Path, *argv: str, script: str = CHECK) -> subprocess.CompletedProcess[str]:
     """``llmpas ARGV`` on the copied tree (the repository root on the path for ``tests``)."""
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(src), str(ROOT)]), "COLUMNS": "200"}
     return subprocess.run(
-        [sys.executable, "-c", CHECK, *argv],
+        [sys.executable, "-c", script, *argv],
         capture_output=True,
         text=True,
         timeout=600,
@@ -124,6 +143,56 @@ def test_a_shipped_scenario_name_finds_its_world(tree: Path) -> None:
     run = llmpas(tree, "run", "atlas-on-shelf2", "--llm", "oracle", "--rounds", "2")
     assert run.returncode == 0, run.stdout + run.stderr
     assert "a library (in memory)" in run.stdout or "task done" in run.stdout
+
+
+def files(src: Path) -> dict[str, str]:
+    """Every file of the tree (bytecode caches left out) and its SHA-256."""
+    return {
+        str(p.relative_to(src)): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(src.rglob("*"))
+        if p.is_file() and "__pycache__" not in p.parts
+    }
+
+
+def test_bench_prompting_runs_its_scenarios(tree: Path, tmp_path: Path) -> None:
+    """``bench prompting --world library``: the world's scenarios are the tasks, the oracle and
+    replan rows run them, each judged from the loop's verdict and the world's truth; the run
+    asks the registry for the folder's world only and writes nothing but its ``--out``."""
+    before, out = files(tree), tmp_path / "bench"
+    argv = ("bench", "prompting", "--world", "library", "--llm", "oracle", "--methods", "none")
+    bench = llmpas(tree, *argv, "--samples", "1", "--out", str(out), script=BENCH)
+    assert bench.returncode == 0, bench.stdout + bench.stderr
+    assert "worlds loaded: ['library']" in bench.stdout
+    assert files(tree) == before  # nothing else touched
+    table = (out / "prompting.md").read_text()
+    assert table.startswith("Prompting methods on the library scenarios (LLM: oracle;")
+    assert "| Method | library SR | library ASPL | library 1st eff. |" in table
+    assert "| oracle (upper bound) | 0.67 | — | — |" in table  # no l_gt: no ASPL
+    assert "| replan (no reasoning: the task restated) | 0.00 | — | — |" in table
+    with (out / "prompting_samples.csv").open() as f:
+        samples = {(r["method"], r["task"]): r for r in csv.DictReader(f)}
+    verdicts = {key: r["verdict"] for key, r in samples.items()}
+    assert verdicts == {
+        ("oracle", "atlas-on-shelf1"): "no-anomaly",  # where it is believed: nothing to resolve
+        ("oracle", "atlas-on-shelf2"): "success",
+        ("oracle", "atlas-on-shelf3"): "success",
+        ("replan", "atlas-on-shelf1"): "no-anomaly",
+        ("replan", "atlas-on-shelf2"): "not-done",  # the task again: the atlas is not found
+        ("replan", "atlas-on-shelf3"): "not-done",
+    }
+    assert samples[("oracle", "atlas-on-shelf3")]["goals"] == "(inspected shelf3)"
+    assert {(r["category"], r["basis"], r["l_gt"]) for r in samples.values()} == {
+        ("library", "truth", "")
+    }
+
+
+def test_bench_prompting_names_a_bad_world(tree: Path, tmp_path: Path) -> None:
+    wrong = llmpas(tree, "bench", "prompting", "--world", "nosuch", "--out", str(tmp_path))
+    assert wrong.returncode == 2, wrong.stdout + wrong.stderr
+    assert wrong.stderr.strip().splitlines() == [
+        "error: --world 'nosuch': expected one of household, pybullet, tabletop, ros2, library "
+        "or package.module:ATTR"
+    ]
 
 
 LISTING = """

@@ -28,6 +28,11 @@ What the LLM contributes, beside SR and ASPL:
   of the task's effective goal sets (``[judge] effective``; the rule:
   :mod:`llmpas.experiments.effective`), over the samples of tasks that list sets.
 
+Another world (``--world NAME``, default the household's suite): its shipped scenarios are the
+tasks, judged from the loop's own verdict against the world's truth
+(:mod:`llmpas.experiments.world_tasks`), the world's name the anomaly type's column, no ASPL (no
+``l_gt``) and no first-proposal effective rate (no effective sets).
+
 Each (method, task, sample) is a cached job (:mod:`llmpas.experiments.jobs`): an interrupted run
 resumes, ``jobs`` runs them in parallel processes. Writes ``prompting.md`` (Table II and the extra
 metrics), ``prompting.csv`` (one row per method and anomaly type), ``prompting.json`` (the same
@@ -67,6 +72,7 @@ from llmpas.experiments.prompting_config import (
     BASELINE,
     ORACLE,
     REPLAN_VERSION,
+    SUITE_WORLD,
     UPPER_BOUND,
     Payload,
     PromptingConfig,
@@ -88,6 +94,7 @@ from llmpas.experiments.prompting_tables import (
 from llmpas.experiments.suite import (
     HALVES,
     SUITE_DIR,
+    Judgement,
     SuiteTask,
     development_half,
     judge,
@@ -95,6 +102,7 @@ from llmpas.experiments.suite import (
     load_task,
     parse_task,
 )
+from llmpas.experiments.world_tasks import WorldTask, judge_scenario, world_task, world_tasks
 from llmpas.experiments.worlds import LoopConfig
 from llmpas.planning import PlannerConfig
 from llmpas.reasoning.assists import Assists
@@ -118,12 +126,12 @@ log = logging.getLogger(__name__)
 # ------------------------------------------------------------------------------- backends
 
 
-def build_llm(spec: str, record: str | None = None) -> LLM | LLMFor:
-    """The backend for ``spec`` (``oracle``: the oracle factory), built once per process (a local
-    model is loaded once, not per job: :func:`~llmpas.experiments.jobs.backend`). ValueError
-    for a bad spec."""
+def build_llm(spec: str, record: str | None = None, world: str = SUITE_WORLD) -> LLM | LLMFor:
+    """The backend for ``spec`` (``oracle``: the oracle factory of ``world``), built once per
+    process (a local model is loaded once, not per job: :func:`~llmpas.experiments.jobs.backend`).
+    ValueError for a bad spec."""
     if spec == ORACLE:
-        return oracle_for("household")
+        return oracle_for(world)
     llm: LLM = backend(spec, record)
     return llm
 
@@ -161,6 +169,8 @@ def loop_config(
 
 def run_job(payload: Payload) -> dict[str, Any]:
     """Judge one sample (module level: it may run in another process)."""
+    if payload.world != SUITE_WORLD:
+        return _run_scenario_job(payload)
     if payload.task_data is None:
         task = load_task(payload.task_file)
     else:
@@ -170,29 +180,48 @@ def run_job(payload: Payload) -> dict[str, Any]:
         if payload.method == REPLAN
         else build_llm(payload.llm, payload.record)
     )
-    j = judge(task, llm, payload.loop, _keeper(payload, task) if payload.keep else None)
-    log.info("%s %s #%d: %s", payload.method, task.name, payload.sample, j.verdict.value)
-    row = payload.row or payload.method
-    protocol = payload.loop.assists.label
+    keep = _keeper(payload, task.name, task.scenario.goal) if payload.keep else None
+    return _record(payload, task.l_gt, judge(task, llm, payload.loop, keep))
+
+
+def _run_scenario_job(payload: Payload) -> dict[str, Any]:
+    """Judge one sample of a world's scenario (:mod:`llmpas.experiments.world_tasks`): replan
+    restates the session's task; the oracle is the world's."""
+    task = world_task(payload.world, payload.task_file)
+    method = payload.loop.method.method
+    llm: LLM | LLMFor = (
+        (lambda session: Replan(session.task, method))
+        if payload.method == REPLAN
+        else build_llm(payload.llm, payload.record, payload.world)
+    )
+    keep = _keeper(payload, task.name) if payload.keep else None
+    return _record(payload, task.l_gt, judge_scenario(task, llm, payload.loop, keep))
+
+
+def _record(payload: Payload, l_gt: int | None, j: Judgement) -> dict[str, Any]:
+    """A sample's row of ``prompting_samples.csv``."""
+    log.info("%s %s #%d: %s", payload.method, j.task, payload.sample, j.verdict.value)
     return {
-        "method": row,
-        "protocol": protocol,
+        "method": payload.row or payload.method,
+        "protocol": payload.loop.assists.label,
         "sample": payload.sample,
-        "l_gt": task.l_gt,
+        "l_gt": l_gt,
         **j.to_json(),
     }
 
 
-def _keeper(payload: Payload, task: SuiteTask) -> Callable[[LoopResult], object]:
-    """Saves a run's ``loop.json`` and its web report into ``payload.keep``."""
+def _keeper(payload: Payload, name: str, goal: str | None = None) -> Callable[[LoopResult], object]:
+    """Saves a run's ``loop.json`` and its web report into ``payload.keep`` (``goal``: the
+    task's; None: the first round's)."""
 
     def keep(result: LoopResult) -> None:
         from llmpas.reporting import build_report
 
         folder = Path(str(payload.keep))
         result.save(folder / "loop.json")
-        about = {"scenario": task.name, "world": "household", "llm": payload.llm}
-        build_report(folder, about | {"method": payload.method, "task": task.scenario.goal})
+        task = goal if goal is not None else result.rounds[0].goal if result.rounds else ""
+        about = {"scenario": name, "world": payload.world, "llm": payload.llm}
+        build_report(folder, about | {"method": payload.method, "task": task})
 
     return keep
 
@@ -224,9 +253,12 @@ def _loop_key(loop: LoopConfig) -> dict[str, Any]:
     return data
 
 
-def jobs_for(config: PromptingConfig, tasks: Sequence[SuiteTask]) -> list[Job[Payload]]:
+def jobs_for(
+    config: PromptingConfig, tasks: Sequence[SuiteTask] | Sequence[WorldTask]
+) -> list[Job[Payload]]:
     out = []
-    data = {t.source: _content(t) for t in tasks}
+    data = {t.source: _content(t) if isinstance(t, SuiteTask) else None for t in tasks}
+    name = (lambda t: t.source) if config.on_suite else (lambda t: t.name)
     for row, method, assists in plan_rows(config):
         is_fixed = method in (ORACLE, REPLAN)  # deterministic, never an LLM: one sample
         llm = method if is_fixed else config.llm
@@ -244,7 +276,9 @@ def jobs_for(config: PromptingConfig, tasks: Sequence[SuiteTask]) -> list[Job[Pa
                 digest = fingerprint([t.digest, _loop_key(loop), llm, record, prompts])
                 key = f"{_safe(row)}/{_safe(llm)}/{t.name}/s{k}/{digest}"
                 keep = str(run_folder(config, key)) if config.keep_runs else None
-                payload = Payload(t.source, method, k, llm, record, loop, data[t.source], keep, row)
+                payload = Payload(
+                    name(t), method, k, llm, record, loop, data[t.source], keep, row, config.world
+                )
                 out.append(Job(key, payload, {} if is_fixed else llm_resources(llm)))
     return out
 
@@ -261,15 +295,7 @@ def _content(task: SuiteTask) -> bytes | None:
 def run_prompting(config: PromptingConfig, console: Console | None = None) -> Report:
     """Run (or resume) the experiment and write the table, CSVs and plot."""
     console = console or Console()
-    tasks = load_suite(config.suite, config.tasks)
-    if config.measures_llm:
-        tasks = tuple(t for t in tasks if t.measures_llm)
-        if not tasks:
-            raise ValueError(f"{config.suite}: no task is marked measures_llm")
-    if config.half:
-        development = development_half(load_suite(config.suite))  # of the whole suite
-        keep = config.half == "development"
-        tasks = tuple(t for t in tasks if (t.name in development) == keep)
+    tasks = _tasks(config)
     jobs = jobs_for(config, tasks)
     if (
         config.methods
@@ -279,12 +305,30 @@ def run_prompting(config: PromptingConfig, console: Console | None = None) -> Re
     ):
         # fail early on a bad spec (with --jobs N each worker process builds its own backend:
         # a local model is then loaded N times)
-        build_llm(config.llm, None if config.record is None else str(config.record))
+        build_llm(config.llm, None if config.record is None else str(config.record), config.world)
     records = run_trials(config, jobs, run_job, "prompting", console)
     cells = summarise(records, rows(config))
     files = write_outputs(records, cells, config)
-    console.print(markdown_table(cells, config), soft_wrap=True, highlight=False, markup=False)
+    table = markdown_table(cells, config, records)
+    console.print(table, soft_wrap=True, highlight=False, markup=False)
     return Report(tuple(records), cells, files)
+
+
+def _tasks(config: PromptingConfig) -> tuple[SuiteTask, ...] | tuple[WorldTask, ...]:
+    """The run's tasks: the suite's (``--tasks``, ``--measures-llm``, ``--half``), or the world's
+    scenarios (``--tasks``: their names)."""
+    if not config.on_suite:
+        return world_tasks(config.world, config.tasks)
+    tasks = load_suite(config.suite, config.tasks)
+    if config.measures_llm:
+        tasks = tuple(t for t in tasks if t.measures_llm)
+        if not tasks:
+            raise ValueError(f"{config.suite}: no task is marked measures_llm")
+    if config.half:
+        development = development_half(load_suite(config.suite))  # of the whole suite
+        keep = config.half == "development"
+        tasks = tuple(t for t in tasks if (t.name in development) == keep)
+    return tasks
 
 
 def _templates_digest() -> str:
@@ -421,6 +465,20 @@ def config_from_args(args: argparse.Namespace, shared: Shared | None = None) -> 
         ablation=getattr(args, "assists", False),
         votes=getattr(args, "votes", 1),
         scoring=getattr(args, "scoring", "mean"),
+        world=getattr(args, "world", None) or SUITE_WORLD,
+    )
+
+
+def _arguments(p: argparse.ArgumentParser) -> None:
+    """The options of ``llmpas bench prompting``: :func:`add_arguments` and ``--world`` (a
+    benchmark that runs the suite through it, ``bench recovery``, takes the others only)."""
+    add_arguments(p)
+    p.add_argument(
+        "--world",
+        default=SUITE_WORLD,
+        help=f"whose tasks: {SUITE_WORLD} (the anomaly suite, --suite), or any registered world "
+        "or your own package.module:WORLD, whose shipped scenarios are then the tasks (all, or "
+        "those --tasks names), each judged from the loop's own verdict and the world's truth",
     )
 
 
@@ -450,8 +508,8 @@ def _in_all(config: AllConfig) -> tuple[str, ...]:
 
 BENCHMARK = Harnessed(
     "prompting",
-    "prompting methods on the household anomaly suite",
-    add_arguments,
+    "prompting methods on the household anomaly suite (or a world's scenarios: --world)",
+    _arguments,
     config_from_args,
     _run,
     SHARED,

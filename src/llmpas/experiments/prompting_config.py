@@ -30,6 +30,9 @@ from llmpas.system import SweepBudget
 UPPER_BOUND = "upper bound"
 BASELINE = "no reasoning"
 REPLAN_VERSION = "replan-2"  # part of the replan row's cache keys: bump when its answers change
+SUITE_WORLD = "household"
+"""The world whose tasks are the anomaly suite's (``--suite``): the default ``--world``. Any other
+world's tasks are its shipped scenarios (:mod:`llmpas.experiments.world_tasks`)."""
 
 
 @dataclass(frozen=True)
@@ -41,7 +44,10 @@ class PromptingConfig:
     ``methods``: prompting methods (of :data:`llmpas.reasoning.methods.METHODS`); ``oracle``
     adds the upper-bound row, ``replan`` the no-reasoning baseline row (and the lifts).
     ``tasks``: only these task names (default: the whole suite); ``measures_llm``: only the
-    tasks marked ``measures_llm`` (the suite that measures the LLM).
+    tasks marked ``measures_llm`` (the suite that measures the LLM). ``world``: the
+    household's anomaly suite (:data:`SUITE_WORLD`), or any registered world (or
+    ``package.module:WORLD``) whose shipped scenarios are then the tasks (``tasks``: their
+    names).
     """
 
     llm: str = "llama-cpp"
@@ -72,8 +78,10 @@ class PromptingConfig:
     # consultation, the loop before #35's sweeps)
     sweep_places: int = SweepBudget().places
     scoring: str = "mean"  # how the choosing methods score candidates (choose.Scoring)
+    world: str = SUITE_WORLD  # another world: its shipped scenarios are the tasks
 
     def __post_init__(self) -> None:
+        self._check_world()
         if self.scoring not in SCORINGS:
             raise ValueError(f"scoring must be one of {', '.join(SCORINGS)}; got {self.scoring!r}")
         if not self.protocols:
@@ -115,6 +123,33 @@ class PromptingConfig:
         if not self.llm.strip():
             raise ValueError(f"llm: give a backend ({choices(('oracle', *BACKENDS))})")
 
+    def _check_world(self) -> None:
+        """The suite's own options apply to the suite only."""
+        if not self.world.strip():
+            raise ValueError("--world: give a world's name")
+        if self.on_suite:
+            return
+        for option, given in (
+            ("--suite", self.suite != SUITE_DIR),
+            ("--measures-llm", self.measures_llm),
+            ("--half", bool(self.half)),
+        ):
+            if given:
+                raise ValueError(
+                    f"{option}: the household suite's option; --world {self.world} runs the "
+                    "world's scenarios (--tasks: their names)"
+                )
+
+    @property
+    def on_suite(self) -> bool:
+        """Whether the tasks are the anomaly suite's (else the world's shipped scenarios)."""
+        return self.world == SUITE_WORLD
+
+    @property
+    def subject(self) -> str:
+        """What the tasks are, as the tables say it."""
+        return "the household anomaly suite" if self.on_suite else f"the {self.world} scenarios"
+
 
 @dataclass(frozen=True)
 class Payload:
@@ -131,6 +166,7 @@ class Payload:
     task_data: bytes | None = None  # the task file's content (None: read ``task_file``)
     keep: str | None = None  # the folder this run is kept in
     row: str = ""  # the table's row ("": ``method``)
+    world: str = SUITE_WORLD  # another world: ``task_file`` is its scenario's name
 
 
 def variants(config: PromptingConfig) -> tuple[Assists, ...]:

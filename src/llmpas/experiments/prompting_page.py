@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from llmpas.experiments.prompting import Cell, PromptingConfig, method_label, run_folder
-from llmpas.experiments.suite import Category
+from llmpas.experiments.prompting_tables import categories
 from llmpas.files import atomic_write
 from llmpas.reporting.html import Markup, href, join, slug, tag, void
 from llmpas.reporting.page import CSS
@@ -35,7 +35,7 @@ def _f(x: float | None) -> str:
 
 def _table(cells: Sequence[Cell], config: PromptingConfig) -> Markup:
     methods = list(dict.fromkeys(c.method for c in cells))
-    cats = [c.value for c in Category if any(x.category == c.value for x in cells)] + ["all"]
+    cats = [c for c, _ in categories(x.category for x in cells)] + ["all"]
     get = {(c.method, c.category): c for c in cells}
     head = [tag("th", "method")]
     head += [tag("th", f"{c} SR", " / ", "ASPL", " / ", "1st eff.") for c in cats]
@@ -112,7 +112,7 @@ def render_page(
 ) -> str:
     plot = config.out_dir / "prompting.png"
     parts = [
-        tag("h1", "Prompting methods on the household anomaly suite"),
+        tag("h1", f"Prompting methods on {config.subject}"),
         tag(
             "p",
             f"LLM: {config.llm}; {config.samples} sample(s) per task and method at temperature "

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import json
 import statistics
-from collections.abc import Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -43,7 +43,7 @@ class Cell:
     tasks: int
     samples: int
     sr: float
-    aspl: float
+    aspl: float | None  # None: a task has no ground-truth resolution length (a world's scenario)
     syntax_error_rate: float | None  # None: no goal answers were read (e.g. none asked)
     repairs: float  # per sample
     tokens: float  # per sample
@@ -60,16 +60,7 @@ def _cell(method: str, category: str, records: Sequence[dict[str, Any]]) -> Cell
     by_task: dict[str, list[dict[str, Any]]] = {}
     for r in records:
         by_task.setdefault(str(r["task"]), []).append(r)
-    srs, terms = [], []
-    for rs in by_task.values():
-        ok = [r for r in rs if r["success"]]
-        sr = len(ok) / len(rs)
-        srs.append(sr)
-        if ok:
-            mean_len = statistics.fmean(float(r["resolution_length"]) for r in ok)
-            terms.append(mean_len / float(rs[0]["l_gt"]) * sr)
-        else:
-            terms.append(0.0)
+    srs = [sum(bool(r["success"]) for r in rs) / len(rs) for rs in by_task.values()]
     n = len(by_task)
     answers = sum(int(r["answers"]) for r in records)
     count = len(records)
@@ -81,7 +72,7 @@ def _cell(method: str, category: str, records: Sequence[dict[str, Any]]) -> Cell
         tasks=n,
         samples=count,
         sr=sum(srs) / n,
-        aspl=sum(terms) / n,
+        aspl=_aspl(by_task.values()),
         syntax_error_rate=(
             sum(int(r["syntax_errors"]) for r in records) / answers if answers else None
         ),
@@ -94,6 +85,32 @@ def _cell(method: str, category: str, records: Sequence[dict[str, Any]]) -> Cell
         sr_low=low,
         sr_high=high,
     )
+
+
+def _aspl(tasks: Iterable[Sequence[Mapping[str, Any]]]) -> float | None:
+    """(1/n) Σ (L̄_i / L_gt,i) × SR_i over the tasks' samples (None: a task has no ``l_gt``)."""
+    terms = []
+    for rs in tasks:
+        if rs[0].get("l_gt") is None:
+            return None
+        ok = [r for r in rs if r["success"]]
+        sr = len(ok) / len(rs)
+        if ok:
+            mean_len = statistics.fmean(float(r["resolution_length"]) for r in ok)
+            terms.append(mean_len / float(rs[0]["l_gt"]) * sr)
+        else:
+            terms.append(0.0)
+    return sum(terms) / len(terms)
+
+
+def categories(values: Iterable[str]) -> list[tuple[str, str]]:
+    """(value, title) of the task categories among ``values`` (``all`` left out): the household
+    suite's anomaly types in their order, then any other (a world's name, as its title) in the
+    order met."""
+    present = list(dict.fromkeys(v for v in values if v != "all"))
+    known = [(c.value, c.title) for c in Category if c.value in present]
+    types = {c.value for c in Category}
+    return known + [(v, v) for v in present if v not in types]
 
 
 def wilson(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
@@ -115,10 +132,8 @@ def summarise(records: Sequence[dict[str, Any]], methods: Sequence[str]) -> tupl
         mine = [r for r in records if r["method"] == method]
         if not mine:
             continue
-        for cat in Category:
-            rs = [r for r in mine if r["category"] == cat.value]
-            if rs:
-                cells.append(_cell(method, cat.value, rs))
+        for cat, _ in categories(str(r["category"]) for r in mine):
+            cells.append(_cell(method, cat, [r for r in mine if r["category"] == cat]))
         cells.append(_cell(method, "all", mine))
     base = {c.category: c.sr for c in cells if c.method == REPLAN}
     return tuple(
@@ -147,9 +162,12 @@ def _signed(x: float | None) -> str:
     return "—" if x is None else f"{x:+.2f}"
 
 
-def markdown_table(cells: Sequence[Cell], config: PromptingConfig) -> str:
+def markdown_table(
+    cells: Sequence[Cell], config: PromptingConfig, records: Sequence[Mapping[str, Any]] = ()
+) -> str:
+    """Table II and the extra metrics (``records``: the samples, for how they were judged)."""
     methods = list(dict.fromkeys(c.method for c in cells))
-    cats = [c for c in Category if any(x.category == c.value for x in cells)]
+    cats = categories(c.category for c in cells)
     get = {(c.method, c.category): c for c in cells}
     fixed = " and ".join(
         name for name, on in ((ORACLE, config.oracle), (REPLAN, config.replan)) if on
@@ -161,20 +179,18 @@ def markdown_table(cells: Sequence[Cell], config: PromptingConfig) -> str:
         else "1 sample per task"
     )
     lines = [
-        f"Prompting methods on the household anomaly suite (LLM: {config.llm}; {sampling}; "
+        f"Prompting methods on {config.subject} (LLM: {config.llm}; {sampling}; "
         f"at most {config.max_rounds} LLM rounds per run). "
         "SR: success rate; ASPL = (1/n) Σ (L̄_i / L_gt,i) × SR_i; "
         "1st eff.: share of first proposals that entail an effective goal set of the task.",
         "",
-        "| Method | "
-        + " | ".join(f"{c.title} SR | {c.title} ASPL | {c.title} 1st eff." for c in cats)
-        + " |",
+        "| Method | " + " | ".join(f"{t} SR | {t} ASPL | {t} 1st eff." for _, t in cats) + " |",
         "|---|" + "---:|---:|---:|" * len(cats),
     ]
     for m in methods:
         row = [method_label(m, config.llm)]
-        for cat in cats:
-            cell = get.get((m, cat.value))
+        for cat, _ in cats:
+            cell = get.get((m, cat))
             row += [_f(cell.sr), _f(cell.aspl), _f(cell.first_effective)] if cell else ["—"] * 3
         lines.append("| " + " | ".join(row) + " |")
     lifted = [m for m in methods if get.get((m, "all")) and get[(m, "all")].lift is not None]
@@ -185,18 +201,16 @@ def markdown_table(cells: Sequence[Cell], config: PromptingConfig) -> str:
             "with the task goal, so a lift near 0 means the planner, not the LLM, resolved the "
             "anomalies):",
             "",
-            "| Method | " + " | ".join(c.title for c in cats) + " | all |",
+            "| Method | " + " | ".join(t for _, t in cats) + " | all |",
             "|---|" + "---:|" * (len(cats) + 1),
         ]
         for m in lifted:
             row = [method_label(m, config.llm)]
-            row += [_signed(get[(m, c.value)].lift) if (m, c.value) in get else "—" for c in cats]
+            row += [_signed(get[(m, c)].lift) if (m, c) in get else "—" for c, _ in cats]
             row.append(_signed(get[(m, "all")].lift))
             lines.append("| " + " | ".join(row) + " |")
     counts = ", ".join(
-        f"{get[(methods[0], c.value)].tasks} {c.value}"
-        for c in cats
-        if (methods[0], c.value) in get
+        f"{get[(methods[0], c)].tasks} {c}" for c, _ in cats if (methods[0], c) in get
     )
     lines += [
         "",
@@ -217,7 +231,21 @@ def markdown_table(cells: Sequence[Cell], config: PromptingConfig) -> str:
         )
     lines += control_lines(methods, config)
     lines += ablation_lines(cells, config)
+    lines += basis_lines(records)
     return "\n".join(lines) + "\n"
+
+
+def basis_lines(records: Sequence[Mapping[str, Any]]) -> list[str]:
+    """What a world's samples were judged on, when some had no truth to judge on (the suite's
+    are judged on the simulator's true state: nothing to say)."""
+    perceived = sum(r.get("basis") == "perceived" for r in records)
+    if not perceived:
+        return []
+    return [
+        "",
+        f"{perceived} of {len(records)} samples were judged on what the robot perceived (their "
+        "world has no truth to judge on): their verdicts are perceived, not true.",
+    ]
 
 
 def control_lines(methods: Sequence[str], config: PromptingConfig) -> list[str]:
@@ -266,7 +294,7 @@ def write_outputs(
 ) -> tuple[Path, ...]:
     out = config.out_dir
     out.mkdir(parents=True, exist_ok=True)
-    md = atomic_write(out / "prompting.md", markdown_table(cells, config))
+    md = atomic_write(out / "prompting.md", markdown_table(cells, config, records))
     summary = write_csv(
         out / "prompting.csv",
         [{**asdict(c), "label": method_label(c.method, config.llm)} for c in cells],
@@ -286,6 +314,7 @@ def write_outputs(
         "temperature": config.temperature,
         "max_rounds": config.max_rounds,
         "tasks": sorted({str(r["task"]) for r in records}),
+        **({} if config.on_suite else {"world": config.world}),
     }
     table = [{**asdict(c), "label": method_label(c.method, config.llm)} for c in cells]
     js = atomic_write(
@@ -306,7 +335,7 @@ def plot(cells: Sequence[Cell], config: PromptingConfig, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     methods = list(dict.fromkeys(c.method for c in cells))
-    cats = [c for c in Category if any(x.category == c.value for x in cells)]
+    cats = categories(c.category for c in cells)
     get = {(c.method, c.category): c for c in cells}
     width = 0.8 / max(1, len(methods))
     fig, axes = plt.subplots(1, 2, figsize=(4.0 + 1.2 * len(cats) * max(1, len(methods)), 5.0))
@@ -315,8 +344,8 @@ def plot(cells: Sequence[Cell], config: PromptingConfig, path: Path) -> None:
         for i, m in enumerate(methods):
             xs = [j + (i - (len(methods) - 1) / 2) * width for j in range(len(cats))]
             ys = [
-                float(getattr(get[(m, c.value)], metric)) if (m, c.value) in get else 0.0
-                for c in cats
+                float(getattr(get[(m, c)], metric) or 0.0) if (m, c) in get else 0.0
+                for c, _ in cats
             ]
             top = max(top, *ys)
             name = method_label(m, config.llm)
@@ -324,7 +353,7 @@ def plot(cells: Sequence[Cell], config: PromptingConfig, path: Path) -> None:
                 xs, ys, width * 0.95, label=name, hatch="//" if UPPER_BOUND in name else None
             )
             ax.bar_label(bars, labels=[f"{y:.2f}" for y in ys], fontsize=7, padding=1)
-        ax.set_xticks(range(len(cats)), [c.title for c in cats])
+        ax.set_xticks(range(len(cats)), [t for _, t in cats])
         ax.set_ylim(0, max(1.12, top * 1.15))
         ax.set_ylabel(label)
         ax.grid(True, axis="y", alpha=0.3)

@@ -44,7 +44,7 @@ class Judgement:
     """The judged outcome of one closed-loop run of one task."""
 
     task: str
-    category: Category
+    category: Category | str  # a household task's anomaly type, or another world's name
     verdict: Verdict
     completed: bool  # the loop reported the task done (end-to-end completion)
     resolution_length: int  # plan actions completed after the first anomaly
@@ -62,6 +62,9 @@ class Judgement:
     wall_time: float
     first_goals: str = ""  # the first goal answer's literals, as the method's reader reads them
     first_effective: bool | None = None  # None: no effective sets, or no anomaly
+    # what a world's scenario was judged on (experiments.world_tasks): "truth", "perceived" (the
+    # world has no truth); "": a suite task, judged on the simulator's true state
+    basis: str = ""
 
     @property
     def success(self) -> bool:
@@ -70,7 +73,7 @@ class Judgement:
     def to_json(self) -> dict[str, Any]:
         return {
             "task": self.task,
-            "category": self.category.value,
+            "category": getattr(self.category, "value", self.category),
             "verdict": self.verdict.value,
             "success": self.success,
             "completed": self.completed,
@@ -89,6 +92,7 @@ class Judgement:
             "wall_time": round(self.wall_time, 3),
             "first_goals": self.first_goals,
             "first_effective": self.first_effective,
+            **({"basis": self.basis} if self.basis else {}),
         }
 
 
