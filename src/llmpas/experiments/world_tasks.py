@@ -29,13 +29,15 @@ from llmpas.errors import UsageError
 from llmpas.experiments.suite.judge import (
     Judgement,
     Verdict,
+    answer_counts,
     first_anomaly,
     first_answer_goals,
+    proposal_fields,
 )
 from llmpas.experiments.worlds import LoopConfig
-from llmpas.reasoning.goal_reading import GoalParse, GoalStatus
+from llmpas.reasoning.goal_reading import GoalParse
 from llmpas.reasoning.llm import LLM
-from llmpas.reasoning.methods import Proposal, Situation, answer_reader
+from llmpas.reasoning.methods import Situation, answer_reader
 from llmpas.system import LLMFor, LoopResult, run
 from llmpas.system.catalog import load_world, scenario_arg
 from llmpas.worlds.api import Session
@@ -115,7 +117,7 @@ def judge_scenario(
     first = _first_trouble(result)
     proposals = [r.proposal for r in result.rounds if r.proposal is not None]
     read = _reader(sessions[0], config) if sessions else None
-    answers, syntax = _answers(proposals, read)
+    answers, syntax = answer_counts(proposals, read)
     first_goals = first_answer_goals(proposals[0], read) if proposals and read else ()
     return Judgement(
         task=task.name,
@@ -125,14 +127,9 @@ def judge_scenario(
         resolution_length=_resolution(result, first[0]) if first else 0,
         anomaly=first[1] if first else "",
         rounds=len(result.rounds),
-        proposals=len(proposals),
         answers=answers,
         syntax_errors=syntax,
-        repairs=sum(p.repairs for p in proposals),
-        tokens=sum(p.tokens for p in proposals),
-        latency=sum(p.latency for p in proposals),
-        first_status=proposals[0].parse.status.value if proposals else "",
-        goals=tuple(str(g) for p in proposals for g in p.goals),
+        **proposal_fields(proposals),
         message=result.message,
         wall_time=time.perf_counter() - start,
         first_goals=" ".join(map(str, first_goals)),
@@ -175,23 +172,6 @@ def _reader(session: Session, config: LoopConfig) -> Callable[[str], GoalParse]:
     blank = Situation("", "", "", "", "", calls=session.prompts.calls)
     read, _ = answer_reader(blank, session.vocabulary, config.method)
     return read
-
-
-def _answers(
-    proposals: Sequence[Proposal], read: Callable[[str], GoalParse] | None
-) -> tuple[int, int]:
-    """Goal answers read (first answers and repairs) and those that did not even parse."""
-    answers = syntax = 0
-    for p in proposals:
-        for ex in p.exchanges:
-            if ex.tag != "goals" and not ex.tag.startswith("repair"):
-                continue
-            answers += 1
-            syntax += read is not None and read(ex.response.text).status in (
-                GoalStatus.SYNTAX,
-                GoalStatus.EMPTY,
-            )
-    return answers, syntax
 
 
 __all__ = ["WorldTask", "judge_scenario", "verdict", "world_task", "world_tasks"]

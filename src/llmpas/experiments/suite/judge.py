@@ -6,7 +6,7 @@ from __future__ import annotations
 import enum
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -185,6 +185,37 @@ def _answer_reader(task: SuiteTask, config: LoopConfig) -> Callable[[str], GoalP
     return read
 
 
+def answer_counts(
+    proposals: Sequence[Proposal], read: Callable[[str], GoalParse] | None
+) -> tuple[int, int]:
+    """Goal answers read (first answers and repairs) and those that did not even parse
+    (``read`` None: none is read as a syntax error)."""
+    answers = syntax = 0
+    for p in proposals:
+        for ex in p.exchanges:
+            if ex.tag != "goals" and not ex.tag.startswith("repair"):
+                continue
+            answers += 1
+            syntax += read is not None and read(ex.response.text).status in (
+                GoalStatus.SYNTAX,
+                GoalStatus.EMPTY,
+            )
+    return answers, syntax
+
+
+def proposal_fields(proposals: Sequence[Proposal]) -> dict[str, Any]:
+    """What a judgement keeps of the LLM's proposals: how many, their repairs, tokens, latency,
+    the first one's parse status and every goal proposed."""
+    return {
+        "proposals": len(proposals),
+        "repairs": sum(p.repairs for p in proposals),
+        "tokens": sum(p.tokens for p in proposals),
+        "latency": sum(p.latency for p in proposals),
+        "first_status": proposals[0].parse.status.value if proposals else "",
+        "goals": tuple(str(g) for p in proposals for g in p.goals),
+    }
+
+
 def judge(
     task: SuiteTask,
     llm: LLM | LLMFor,
@@ -209,7 +240,6 @@ def judge(
     else:
         verdict = Verdict.SUCCESS
     proposals = [r.proposal for r in result.rounds if r.proposal is not None]
-    answers = syntax = 0
     read = _answer_reader(task, config)
     first_goals = first_answer_goals(proposals[0] if proposals else None, read)
     sets = task.effective_sets()
@@ -217,12 +247,7 @@ def judge(
     first_effective = (  # None: nothing to judge (no sets, or no anomaly to resolve)
         is_effective(first_goals, sets, lost, task.search_places()) if sets and first else None
     )
-    for p in proposals:
-        for ex in p.exchanges:
-            if ex.tag != "goals" and not ex.tag.startswith("repair"):
-                continue
-            answers += 1
-            syntax += read(ex.response.text).status in (GoalStatus.SYNTAX, GoalStatus.EMPTY)
+    answers, syntax = answer_counts(proposals, read)
     return Judgement(
         task=task.name,
         category=task.category,
@@ -231,14 +256,9 @@ def judge(
         resolution_length=resolution_length(result, task),
         anomaly=str(first[1].constraint) if first else "",
         rounds=len(result.rounds),
-        proposals=len(proposals),
         answers=answers,
         syntax_errors=syntax,
-        repairs=sum(p.repairs for p in proposals),
-        tokens=sum(p.tokens for p in proposals),
-        latency=sum(p.latency for p in proposals),
-        first_status=proposals[0].parse.status.value if proposals else "",
-        goals=tuple(str(g) for p in proposals for g in p.goals),
+        **proposal_fields(proposals),
         message=result.message,
         wall_time=time.perf_counter() - start,
         first_goals=" ".join(map(str, first_goals)),
