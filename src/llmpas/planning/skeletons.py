@@ -24,6 +24,7 @@ from llmpas.planning.instances import (
     evaluate_negative_tests,
     is_optimistic,
 )
+from llmpas.planning.plan_tests import check_plan_tests
 from llmpas.planning.plan_trace import Trace, final_plan, retrace, step_context
 from llmpas.planning.planner_run import Run, negative_streams, object_types, update_costs
 from llmpas.planning.result import (
@@ -193,8 +194,8 @@ class _Binder:
         takes one of its values directly, only if the same test passed on another of its
         values (otherwise the failure is taken as structural, e.g. a slot that another block
         fills, and left to the next search)."""
-        if failed.outputs:
-            return True  # a function or sampler found nothing: try other inputs
+        if failed.outputs or id(failed) in self.trace.negated:
+            return True  # a sampler found nothing, or a sample fails a test the plan reads negated
         sources = self.trace.sources.get(id(failed), {})
         inputs = self._inputs(failed)
         store = self.run.store
@@ -319,6 +320,7 @@ def realize(run: Run, done: Evaluated, opt: list[OptInstance]) -> Plan | None:
         if real_args is None:
             return None
         actions.append((name, real_args))
+    check_plan_tests(run, tuple(actions), opt)  # the tests it reads negated, then the check
     traced = retrace(run, tuple(actions), opt)
     if traced is None:
         return None
