@@ -35,7 +35,11 @@ log = logging.getLogger(__name__)
 
 
 def evaluate_streams(
-    run: Run, needed: list[OptInstance], trace: Trace, effort: int = 1
+    run: Run,
+    needed: list[OptInstance],
+    trace: Trace,
+    effort: int = 1,
+    kept: dict[int, dict[str, str]] | None = None,
 ) -> dict[int, dict[str, str]]:
     """Evaluate a stream plan in order; each placeholder input takes the real output of the
     producer the trace chose for it. Returns, per evaluated instance (by id), its placeholder
@@ -44,13 +48,18 @@ def evaluate_streams(
     When an instance fails (a test rejects, a function finds nothing), the plan's skeleton is
     kept and the binding is searched further, as PDDLStream's adaptive algorithm does: the most
     recently evaluated sampler upstream of the failure draws a new value and only what depends
-    on it is evaluated again, at most ``_RETRIES`` times per failed instance. For a fluent
+    on it is evaluated again, at most ``_RETRIES`` times per failed instance (``_NEGATED_RETRIES``
+    for a test the plan reads negated, added by :func:`~llmpas.planning.plan_tests.with_plan_tests`,
+    whose retries take the samplers upstream in turn). ``kept``: bindings of an earlier
+    evaluation that stay (a skeleton drawn again goes on from its failed instances). For a fluent
     stream, the samplers of the values in its context (where the plan put things before) are
     upstream too, and each retry takes the next one back."""
     binder = _Binder(run, needed, trace)
+    binder.real.update(kept or {})
     position, retries = 0, Counter[int]()
     while position < len(needed):
-        if binder.bind(position) or retries[position] >= _RETRIES * effort:
+        limit = _retries(trace, needed[position]) * effort
+        if binder.bind(position) or retries[position] >= limit:
             position += 1
         else:
             back = binder.backtrack(position, retries[position])
@@ -65,6 +74,12 @@ def evaluate_streams(
 
 
 _RETRIES = 2  # new values drawn upstream of one failed instance, per stream plan (effort 1)
+#: the same for a test the plan reads negated (a collision test: a new sample usually passes)
+_NEGATED_RETRIES = 6
+
+
+def _retries(trace: Trace, inst: OptInstance) -> int:
+    return _NEGATED_RETRIES if id(inst) in trace.negated else _RETRIES
 
 
 class _Binder:
@@ -173,7 +188,7 @@ class _Binder:
             rec = self.run.store.records.get((inst.stream.schema.name, self._inputs(inst)))
             if inst.outputs and rec is not None and not rec.exhausted:
                 candidates.append((j, rec))
-        if failed.step is not None and candidates:
+        if (failed.step is not None or id(failed) in self.trace.negated) and candidates:
             candidates = candidates[attempt % len(candidates) :][:1]
         for j, rec in candidates:
             inst = self.needed[j]
@@ -276,7 +291,10 @@ def resample(run: Run, skeletons: list[Evaluated], opt: list[OptInstance]) -> Pl
     skeleton = skeletons.pop()
     effort = skeleton.effort + 1
     needed = list(skeleton.needed)
-    real = evaluate_streams(run, needed, skeleton.trace, effort)
+    # with tests read negated in its stream plan (#44): the values that were bound stay, and
+    # the binding goes on from the instances that failed, as PDDLStream's bindings do
+    kept = skeleton.real if skeleton.trace.negated else None
+    real = evaluate_streams(run, needed, skeleton.trace, effort, kept)
     again = dataclasses.replace(skeleton, real=real, effort=effort)
     log.debug(
         "iteration %d: skeleton of %d steps drawn again (effort %d): %d of %d bound",
