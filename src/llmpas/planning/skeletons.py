@@ -49,8 +49,9 @@ def evaluate_streams(
     kept and the binding is searched further, as PDDLStream's adaptive algorithm does: the most
     recently evaluated sampler upstream of the failure draws a new value and only what depends
     on it is evaluated again, at most ``_RETRIES`` times per failed instance (``_NEGATED_RETRIES``
-    for a test the plan reads negated, added by :func:`~llmpas.planning.plan_tests.with_plan_tests`,
-    whose retries take the samplers upstream in turn). ``kept``: bindings of an earlier
+    for a test the plan reads negated, added by :func:`~llmpas.planning.plan_tests.with_plan_tests`:
+    the latest sampler upstream draws again; taking the samplers upstream in turn measured
+    worse). ``kept``: bindings of an earlier
     evaluation that stay (a skeleton drawn again goes on from its failed instances). For a fluent
     stream, the samplers of the values in its context (where the plan put things before) are
     upstream too, and each retry takes the next one back."""
@@ -188,7 +189,7 @@ class _Binder:
             rec = self.run.store.records.get((inst.stream.schema.name, self._inputs(inst)))
             if inst.outputs and rec is not None and not rec.exhausted:
                 candidates.append((j, rec))
-        if (failed.step is not None or id(failed) in self.trace.negated) and candidates:
+        if failed.step is not None and candidates:
             candidates = candidates[attempt % len(candidates) :][:1]
         for j, rec in candidates:
             inst = self.needed[j]
