@@ -221,6 +221,14 @@ def test_classical_task_assumes_optimistic_facts_with_placeholders() -> None:
     assert "stream__" not in domain  # no stream actions: optimistic facts are assumed
     assert "(contained b0 #o" in problem and "(reach b0 v0 #o" in problem
     assert "rejected__cfree" in domain  # the negated collision test is rewritten
+    # #44: the negated test is evaluated for a plan's bindings only, not before the search
+    assert "(cfree " not in problem
+
+
+def test_negated_tests_on_every_binding_without_lazy_tests() -> None:
+    planner = ScriptedPlanner([ClassicalPlan(ClassicalStatus.ERROR, (), None, 0.0, 0.0, "x")])
+    solve(make_problem(WIDE), PlannerConfig(lazy_tests=False), classical=planner)
+    _, problem = planner.calls[0]
     assert "(cfree b0 v0 b1 v1)" in problem  # real bindings of the negative test: evaluated
 
 

@@ -53,7 +53,8 @@ def validate(attempt: Attempt) -> Validation:
     problem = attempt.translation.problem
     values = {**problem.objects, **{k: v for k, v in plan.objects.items() if v is not None}}
     fluent = _fluent_streams(problem)
-    facts = set(problem.init) | _sampled(problem, plan, fluent) | plan.reported
+    used = _used(problem, plan)
+    facts = set(problem.init) | _sampled(problem, plan, fluent, used) | plan.reported
     raised: list[str] = []
     facts |= recomputed(problem, facts, values, raised, skip=set(fluent))
     names = set(values) | {t for a in facts | plan.fluent_facts.keys() for t in a.args}
@@ -88,16 +89,29 @@ def _fluent_streams(problem: Problem) -> dict[str, BoundStream]:
     }
 
 
-def _sampled(problem: Problem, plan: Plan, fluent: Mapping[str, BoundStream]) -> set[Atom]:
+def _used(problem: Problem, plan: Plan) -> set[str]:
+    """The objects a replay of the plan can meet: the init's, the domain's constants and the
+    plan's arguments (a state changes only through the plan's steps)."""
+    used = set(problem.objects) | {c.name for c in problem.domain.constants}
+    used |= {t for a in problem.init for t in a.args}
+    return used | {t for s in plan.steps for t in s.args}
+
+
+def _sampled(
+    problem: Problem, plan: Plan, fluent: Mapping[str, BoundStream], used: set[str]
+) -> set[Atom]:
     """The plan's certified facts of predicates that a stream with outputs and without
-    ``:fluents`` certifies."""
+    ``:fluents`` certifies, on the objects the plan uses (``used``): the samples it does not
+    use (drawn and rejected while planning) are left out, so that the tests recomputed on
+    every binding of them (quadratic in the samples) are not; leaving facts out can only make
+    the replay stricter."""
     sampled = {
         a.predicate
         for s in problem.streams.streams
         if s.outputs and s.name not in fluent
         for a in s.certified
     }
-    return {a for a in plan.certified if a.predicate in sampled}
+    return {a for a in plan.certified if a.predicate in sampled and used.issuperset(a.args)}
 
 
 class _InContext:

@@ -55,6 +55,12 @@ class PlannerConfig:
     on PDDLStream's pybullet/tamp -teleport: -n 4 3.9-10 s CPU vs 3.9-45 s without, -n 5 3 of 4
     solved vs 1 of 4; on the 2-D packed family 2.4x slower: docs/pddlstream.md).
 
+    ``lazy_tests`` (focused planning): a test whose predicate is read negated (a collision
+    test in an ``Unsafe*`` axiom) is evaluated only on the bindings a plan over real values
+    relies on, its negative preimage, as PDDLStream's focused algorithm does
+    (:mod:`~llmpas.planning.plan_tests`); when False, on every real binding before each
+    search, as before #44.
+
     Limits. *Counted* limits make the verdict a function of the problem and the config only;
     reaching one ends planning with status ``limit`` and a message naming it:
 
@@ -126,6 +132,7 @@ class PlannerConfig:
     seed: int = 0
     share_placeholders: bool = False
     init_identity: bool = False  # a stream output equal to an init object's value is that object
+    lazy_tests: bool = True  # focused: tests read negated evaluated for a plan's bindings only
     search: str | None = None  # a Fast Downward search string (None: the quality's)
     quality: QualityName = DEFAULT_QUALITY
     patience: int = 10  # anytime: iterations without a cheaper plan before it stops

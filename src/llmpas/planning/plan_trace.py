@@ -57,6 +57,8 @@ class Trace:
         self.actions: tuple[tuple[str, tuple[str, ...]], ...] = ()
         #: per step, the real facts of fluent streams it relies on, certified in its context
         self.in_context: list[dict[Atom, frozenset[Atom]]] = []
+        #: id() of the tests read negated added to the stream plan (plan_tests.with_plan_tests)
+        self.negated: set[int] = set()
 
     def step(self, k: int, facts: list[Atom], args: tuple[str, ...]) -> list[OptInstance]:
         """Instances newly needed for step ``k``'s (or the goal's) facts and arguments,

@@ -71,6 +71,11 @@ class Run:
     fluent: dict[str, BoundStream] = field(default_factory=dict)  # evaluated fluent streams
     depth: int | None = None  # focused: the closure's depth near a new incumbent (None: max)
     shared: bool = False  # focused: placeholders shared (config, or a closure too large unshared)
+    #: focused: tests read negated that are evaluated for a plan's bindings only (plan_tests)
+    lazy: frozenset[str] = frozenset()
+    #: focused: lazy tests whose certified atoms no formula reads positively: no optimistic
+    #: instances (what a plan needs of them is their rejections' absence, checked per plan)
+    unread: frozenset[str] = frozenset()
 
     @property
     def fluent_by_predicate(self) -> dict[str, str]:
@@ -108,7 +113,8 @@ class Run:
     def instantiated(self, b: BoundStream) -> bool:
         """Whether the stream gets optimistic instances (inlined ones need none, and streams
         with ``p_success=0`` are never assumed)."""
-        return b.schema.name not in self.inline and not b.info.never_assumed
+        name = b.schema.name
+        return name not in self.inline and name not in self.unread and not b.info.never_assumed
 
     def hidden(self) -> set[str]:
         """The real objects kept out of the classical task: when the algorithm set a complexity
@@ -196,17 +202,22 @@ def iteration_limit(run: Run) -> PlanResult:
 
 
 def negative_streams(run: Run) -> list[BoundStream]:
-    """Non-deferred tests whose certified atoms occur negated, streams never assumed
-    (``p_success=0``) and eager ones: evaluated on every real binding before a search."""
+    """Non-deferred tests whose certified atoms occur negated (but the ``lazy`` ones, which
+    are evaluated for a plan's bindings: :mod:`~llmpas.planning.plan_tests`), streams never
+    assumed (``p_success=0``) and eager ones: evaluated on every real binding before a
+    search."""
     return [
         b
         for b in run.problem.bound_streams.values()
-        if b.info.never_assumed
-        or b.info.eager
-        or (
-            b.schema.is_test
-            and not run.deferred(b)
-            and any(a.predicate in run.negative_tests for a in b.schema.certified)
+        if b.schema.name not in run.lazy
+        and (
+            b.info.never_assumed
+            or b.info.eager
+            or (
+                b.schema.is_test
+                and not run.deferred(b)
+                and any(a.predicate in run.negative_tests for a in b.schema.certified)
+            )
         )
     ]
 

@@ -24,6 +24,7 @@ from llmpas.planning.instances import (
     evaluate_negative_tests,
     is_optimistic,
 )
+from llmpas.planning.plan_tests import check_plan_tests
 from llmpas.planning.plan_trace import Trace, final_plan, retrace, step_context
 from llmpas.planning.planner_run import Run, negative_streams, object_types, update_costs
 from llmpas.planning.result import (
@@ -34,7 +35,11 @@ log = logging.getLogger(__name__)
 
 
 def evaluate_streams(
-    run: Run, needed: list[OptInstance], trace: Trace, effort: int = 1
+    run: Run,
+    needed: list[OptInstance],
+    trace: Trace,
+    effort: int = 1,
+    kept: dict[int, dict[str, str]] | None = None,
 ) -> dict[int, dict[str, str]]:
     """Evaluate a stream plan in order; each placeholder input takes the real output of the
     producer the trace chose for it. Returns, per evaluated instance (by id), its placeholder
@@ -43,13 +48,19 @@ def evaluate_streams(
     When an instance fails (a test rejects, a function finds nothing), the plan's skeleton is
     kept and the binding is searched further, as PDDLStream's adaptive algorithm does: the most
     recently evaluated sampler upstream of the failure draws a new value and only what depends
-    on it is evaluated again, at most ``_RETRIES`` times per failed instance. For a fluent
+    on it is evaluated again, at most ``_RETRIES`` times per failed instance (``_NEGATED_RETRIES``
+    for a test the plan reads negated, added by :func:`~llmpas.planning.plan_tests.with_plan_tests`:
+    the latest sampler upstream draws again; taking the samplers upstream in turn measured
+    worse). ``kept``: bindings of an earlier
+    evaluation that stay (a skeleton drawn again goes on from its failed instances). For a fluent
     stream, the samplers of the values in its context (where the plan put things before) are
     upstream too, and each retry takes the next one back."""
     binder = _Binder(run, needed, trace)
+    binder.real.update(kept or {})
     position, retries = 0, Counter[int]()
     while position < len(needed):
-        if binder.bind(position) or retries[position] >= _RETRIES * effort:
+        limit = _retries(trace, needed[position]) * effort
+        if binder.bind(position) or retries[position] >= limit:
             position += 1
         else:
             back = binder.backtrack(position, retries[position])
@@ -64,6 +75,12 @@ def evaluate_streams(
 
 
 _RETRIES = 2  # new values drawn upstream of one failed instance, per stream plan (effort 1)
+#: the same for a test the plan reads negated (a collision test: a new sample usually passes)
+_NEGATED_RETRIES = 6
+
+
+def _retries(trace: Trace, inst: OptInstance) -> int:
+    return _NEGATED_RETRIES if id(inst) in trace.negated else _RETRIES
 
 
 class _Binder:
@@ -193,8 +210,8 @@ class _Binder:
         takes one of its values directly, only if the same test passed on another of its
         values (otherwise the failure is taken as structural, e.g. a slot that another block
         fills, and left to the next search)."""
-        if failed.outputs:
-            return True  # a function or sampler found nothing: try other inputs
+        if failed.outputs or id(failed) in self.trace.negated:
+            return True  # a sampler found nothing, or a sample fails a test the plan reads negated
         sources = self.trace.sources.get(id(failed), {})
         inputs = self._inputs(failed)
         store = self.run.store
@@ -275,7 +292,10 @@ def resample(run: Run, skeletons: list[Evaluated], opt: list[OptInstance]) -> Pl
     skeleton = skeletons.pop()
     effort = skeleton.effort + 1
     needed = list(skeleton.needed)
-    real = evaluate_streams(run, needed, skeleton.trace, effort)
+    # with tests read negated in its stream plan (#44): the values that were bound stay, and
+    # the binding goes on from the instances that failed, as PDDLStream's bindings do
+    kept = skeleton.real if skeleton.trace.negated else None
+    real = evaluate_streams(run, needed, skeleton.trace, effort, kept)
     again = dataclasses.replace(skeleton, real=real, effort=effort)
     log.debug(
         "iteration %d: skeleton of %d steps drawn again (effort %d): %d of %d bound",
@@ -319,6 +339,7 @@ def realize(run: Run, done: Evaluated, opt: list[OptInstance]) -> Plan | None:
         if real_args is None:
             return None
         actions.append((name, real_args))
+    check_plan_tests(run, tuple(actions), opt)  # the tests it reads negated, then the check
     traced = retrace(run, tuple(actions), opt)
     if traced is None:
         return None

@@ -76,6 +76,12 @@ from llmpas.planning.instances import (
     negative_test_predicates,
     optimistic_instances,
 )
+from llmpas.planning.plan_tests import (
+    check_plan_tests,
+    lazy_tests,
+    unread_tests,
+    with_plan_tests,
+)
 from llmpas.planning.plan_trace import final_plan, replayed, retrace
 from llmpas.planning.planner_run import (
     Run,
@@ -224,6 +230,8 @@ def _focused(run: Run, queue: bool) -> PlanResult:
     evaluated: Evaluated | None = None  # the last plan whose streams were evaluated
     skeletons: list[Evaluated] = []  # evaluated plans that did not hold: to draw again
     run.complexity_limit = run.config.max_level
+    run.lazy = lazy_tests(run) if run.config.lazy_tests else frozenset()
+    run.unread = unread_tests(run)
     while run.iterations < run.config.max_iterations:
         run.iterations += 1
         stop = run.patience_left()
@@ -263,12 +271,20 @@ def _focused(run: Run, queue: bool) -> PlanResult:
         per_step, trace = replayed(retrace(run, actions, opt))
         needed = [i for insts in per_step for i in insts if not run.deferred(i.stream)]
         if not needed:
+            if check_plan_tests(run, actions, opt):  # a test it reads negated failed
+                traced = retrace(run, actions, opt)
+                if traced is None or any(
+                    not run.deferred(i.stream) for insts in traced[0] for i in insts
+                ):
+                    continue
+                per_step, trace = traced
             done = run.accept(final_plan(run, actions, per_step, cost, trace))
             if done is not None:
                 return done
             continue
         # fluent streams last, step by step: their contexts need the plan's real values
         needed = [i for i in needed if i.step is None] + [i for i in needed if i.step is not None]
+        needed = with_plan_tests(run, actions, opt, trace, needed)
         real = evaluate_streams(run, needed, trace)
         evaluated = Evaluated(
             actions, [i for insts in per_step for i in insts], trace, real, tuple(needed)
