@@ -216,7 +216,7 @@ def test_classical_failures_become_typed_results(
 
 def test_classical_task_assumes_optimistic_facts_with_placeholders() -> None:
     planner = ScriptedPlanner([ClassicalPlan(ClassicalStatus.ERROR, (), None, 0.0, 0.0, "x")])
-    solve(make_problem(WIDE), classical=planner)
+    solve(make_problem(WIDE), PlannerConfig(lazy_tests=True), classical=planner)
     domain, problem = planner.calls[0]
     assert "stream__" not in domain  # no stream actions: optimistic facts are assumed
     assert "(contained b0 #o" in problem and "(reach b0 v0 #o" in problem
@@ -227,7 +227,7 @@ def test_classical_task_assumes_optimistic_facts_with_placeholders() -> None:
 
 def test_negated_tests_on_every_binding_without_lazy_tests() -> None:
     planner = ScriptedPlanner([ClassicalPlan(ClassicalStatus.ERROR, (), None, 0.0, 0.0, "x")])
-    solve(make_problem(WIDE), PlannerConfig(lazy_tests=False), classical=planner)
+    solve(make_problem(WIDE), PlannerConfig(), classical=planner)  # the default: eager
     _, problem = planner.calls[0]
     assert "(cfree b0 v0 b1 v1)" in problem  # real bindings of the negative test: evaluated
 

@@ -124,6 +124,7 @@ def solve(
         search=search,
         max_empty_samples=GENERATOR_NONE_ENDS_CALL,
         init_identity=True,  # as in PDDLStream
+        lazy_tests=True,  # as PDDLStream's focused algorithm: tests for a plan's bindings
         share_placeholders=_shared_values(problem),
     )
     started = _cpu()
