@@ -156,16 +156,16 @@ def parse_task(raw: bytes, source: str) -> HouseholdTask:
 def judged(path: str | Path) -> tuple[Scenario, str] | None:
     """A ``.toml`` file with a ``[judge]`` table: its scenario and its ``success`` intent (the
     registry's hook for ``llmpas run``); None for any other file (a plain scenario file, whose
-    errors the scenario reader reports)."""
-    from llmpas.inputs import read_toml
-
-    try:  # bounded, regular files only (a FIFO or a device is the scenario reader's to name)
-        data = read_toml(path, "scenario")
+    errors the scenario reader reports). The file is read once, bounded."""
+    source = str(path)
+    try:  # regular files only (a FIFO or a device is the scenario reader's to name)
+        raw = read_bytes(path, "scenario", TOML_LIMIT)
+        data = parse_toml(decode_text(raw, source, "scenario"), source)
     except InputError:
         return None
     if "judge" not in data:
         return None
-    task = load_task(path)
+    task = task_from_dict(data, source=source, digest=hashlib.sha256(raw).hexdigest())
     return task.scenario, task.success
 
 
